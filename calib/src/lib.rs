@@ -1,0 +1,1 @@
+//! Calibration maps (in progress).

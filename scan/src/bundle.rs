@@ -1,0 +1,3 @@
+//! (in progress)
+pub struct Bundle;
+pub enum TruthMap {}

@@ -1,0 +1,182 @@
+//! The manifest (`scan.toml`) as validated, typed data.
+//!
+//! Parsing goes through a raw serde layer (private, in this module) that
+//! keeps unknown keys so they can be warned about, then through validation
+//! into these types. Once a [`Manifest`] exists it is known to be consistent:
+//! matrices are finite and 4x4, every capture names lights of its position,
+//! names are unique, sizes are positive.
+
+use glam::{DMat4, DVec3};
+use std::path::PathBuf;
+
+/// The format string this crate reads and writes.
+pub const FORMAT: &str = "matscan-scan/1";
+
+/// A validated `scan.toml`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Manifest {
+    /// Length unit of every world-space number (`"m"` by default).
+    pub units: String,
+    pub name: String,
+    /// RFC 3339 timestamp, free text for readers.
+    pub created: String,
+    /// One intrinsic model shared by all positions.
+    pub camera: crate::camera::Intrinsics,
+    pub positions: Vec<Position>,
+}
+
+/// One pose of the scan head (or of the object on a turntable).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Position {
+    pub name: String,
+    /// Maps camera-frame points (OpenCV: x right, y down, z forward) to world.
+    pub camera_to_world: DMat4,
+    pub lights: Vec<Light>,
+    pub captures: Vec<Capture>,
+    /// Relative path of an 8-bit mask of white diffuse reference pixels.
+    pub white_reference_mask: Option<PathBuf>,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct Light {
+    pub name: String,
+    pub kind: LightKind,
+    /// Relative linear RGB; white when the manifest gives none.
+    pub color: [f64; 3],
+    /// W/sr for point lights and the projector at full white, radiance for
+    /// the backlight. Optional: the white reference measures what matters.
+    pub intensity: Option<f64>,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub enum LightKind {
+    Point {
+        position: DVec3,
+    },
+    /// A pinhole projector; its frame follows the OpenCV camera convention.
+    Projector {
+        projector_to_world: DMat4,
+        intrinsics: crate::camera::Intrinsics,
+    },
+    /// The diffuse panel behind the object; it has no pose.
+    Backlight,
+}
+
+/// How a 16-bit PNG photo encodes radiance. EXR photos are always linear.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Encoding {
+    Linear,
+    Srgb,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Pattern {
+    Uniform {
+        level: f64,
+    },
+    /// `period_px` is the full period (one light plus one dark square).
+    Checker {
+        period_px: f64,
+        phase_px: [f64; 2],
+        low: f64,
+        high: f64,
+    },
+}
+
+impl Pattern {
+    /// The pattern value at integer projector pixel (column `u`, row `v`),
+    /// exactly as the contract defines the checkerboard.
+    pub fn value_at(&self, u: i64, v: i64) -> f64 {
+        match *self {
+            Pattern::Uniform { level } => level,
+            Pattern::Checker {
+                period_px,
+                phase_px,
+                low,
+                high,
+            } => {
+                let half = period_px / 2.0;
+                let i = ((u as f64 - phase_px[0]) / half).floor() as i64;
+                let j = ((v as f64 - phase_px[1]) / half).floor() as i64;
+                if (i + j).rem_euclid(2) == 0 {
+                    high
+                } else {
+                    low
+                }
+            }
+        }
+    }
+}
+
+/// One photo taken at a position.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Capture {
+    pub name: String,
+    /// Relative to the bundle folder.
+    pub file: PathBuf,
+    pub exposure_s: f64,
+    /// Names of the rig lights switched on (all belong to the position).
+    pub lights: Vec<String>,
+    pub pattern: Option<Pattern>,
+    /// Declared for PNG photos; `None` for EXR.
+    pub encoding: Option<Encoding>,
+}
+
+/// What a capture is for, derived from its lights and pattern (the
+/// contract's table), never from its name.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum CaptureRole {
+    Ambient,
+    /// One point light or the projector with a uniform pattern (or none).
+    Lit { light: String },
+    Backlit,
+    /// The projector showing a checkerboard.
+    Pattern { light: String },
+    /// A combination the estimator has no use for (two flashes at once, ...).
+    Other,
+}
+
+impl Capture {
+    /// The role of this capture, given the lights of its position.
+    pub fn role(&self, lights: &[Light]) -> CaptureRole {
+        let kind_of = |n: &str| lights.iter().find(|l| l.name == n).map(|l| &l.kind);
+        match self.lights.as_slice() {
+            [] => CaptureRole::Ambient,
+            [one] => match (kind_of(one), self.pattern) {
+                (Some(LightKind::Backlight), None) => CaptureRole::Backlit,
+                (Some(LightKind::Point { .. }), None) => CaptureRole::Lit { light: one.clone() },
+                (Some(LightKind::Projector { .. }), None | Some(Pattern::Uniform { .. })) => {
+                    CaptureRole::Lit { light: one.clone() }
+                }
+                (Some(LightKind::Projector { .. }), Some(Pattern::Checker { .. })) => {
+                    CaptureRole::Pattern { light: one.clone() }
+                }
+                _ => CaptureRole::Other,
+            },
+            _ => CaptureRole::Other,
+        }
+    }
+}
+
+impl Position {
+    pub fn light(&self, name: &str) -> Option<&Light> {
+        self.lights.iter().find(|l| l.name == name)
+    }
+
+    pub fn capture(&self, name: &str) -> Option<&Capture> {
+        self.captures.iter().find(|c| c.name == name)
+    }
+
+    /// The ambient capture (all rig lights off), if the position has one.
+    pub fn ambient(&self) -> Option<&Capture> {
+        self.captures
+            .iter()
+            .find(|c| c.role(&self.lights) == CaptureRole::Ambient)
+    }
+}
+
+impl Manifest {
+    pub fn position(&self, name: &str) -> Option<&Position> {
+        self.positions.iter().find(|p| p.name == name)
+    }
+}

@@ -1,0 +1,1 @@
+//! Principled BSDF (in progress).

@@ -1,0 +1,23 @@
+//! The simulated rig: matscan's own physically based renderer and the
+//! procedural scenes it renders, standing in for real hardware in tests, in
+//! the demo and as the source of training data.
+//!
+//! - [`material`]: the Principled BSDF inputs at a point;
+//! - [`bsdf`]: the Principled BSDF as Blender 2.9x Cycles implements it;
+//! - [`scene`]: procedural geometry, parameter maps, rig randomization;
+//! - [`render`]: a Monte Carlo path tracer with next-event estimation and
+//!   multiple importance sampling over the rig's lights and the environment,
+//!   and the writer of whole scan bundles.
+//!
+//! Boundaries: reads and writes bundles only through `matscan-scan`; knows
+//! nothing of calibration or estimation.
+//!
+//! Crate choices: `rayon` for tile-parallel rendering (work stealing keeps
+//! both cores busy when tiles differ in cost); `rand_pcg` for a small,
+//! seedable, platform-independent generator so renders are deterministic per
+//! seed.
+
+pub mod bsdf;
+pub mod material;
+pub mod render;
+pub mod scene;
