@@ -26,6 +26,7 @@ pub mod error;
 pub mod image_io;
 pub mod manifest;
 pub mod mesh;
+pub mod mesh_io;
 pub mod param;
 pub mod raster;
 

@@ -1,0 +1,1 @@
+//! PLY and OBJ mesh reading and writing (in progress).
