@@ -1,13 +1,23 @@
 //! The manifest (`scan.toml`) as validated, typed data.
 //!
-//! Parsing goes through a raw serde layer (private, in this module) that
-//! keeps unknown keys so they can be warned about, then through validation
-//! into these types. Once a [`Manifest`] exists it is known to be consistent:
-//! matrices are finite and 4x4, every capture names lights of its position,
-//! names are unique, sizes are positive.
+//! Parsing goes through a raw layer over `toml` (`fields`) that keeps
+//! track of unknown keys so they can be warned about, then through
+//! validation (`parse`) into these types. Once a [`Manifest`] exists it is
+//! known to be consistent: matrices are finite, affine and invertible, every
+//! capture names lights of its position, names are unique, sizes are
+//! positive. [`Manifest::to_toml`] writes it back (`write`).
+//!
+//! Boundaries: text in, text out; whether the files a manifest names exist
+//! is [`crate::bundle`]'s business.
 
+mod fields;
+mod parse;
+mod write;
+
+use crate::camera::{Intrinsics, PinholeCamera};
+use crate::error::ScanError;
 use glam::{DMat4, DVec3};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// The format string this crate reads and writes.
 pub const FORMAT: &str = "matscan-scan/1";
@@ -175,8 +185,64 @@ impl Position {
     }
 }
 
+impl Position {
+    /// Every capture with its role.
+    pub fn captures_with_role(&self) -> impl Iterator<Item = (&Capture, CaptureRole)> {
+        self.captures.iter().map(|c| (c, c.role(&self.lights)))
+    }
+
+    /// The lit captures (one point light, or the projector uniformly lit)
+    /// with the name of their light: the views of this position.
+    pub fn lit_captures(&self) -> impl Iterator<Item = (&Capture, String)> {
+        self.captures_with_role().filter_map(|(c, r)| match r {
+            CaptureRole::Lit { light } => Some((c, light)),
+            _ => None,
+        })
+    }
+
+    /// The first capture with only the backlight on, if any.
+    pub fn backlit(&self) -> Option<&Capture> {
+        self.captures_with_role()
+            .find(|(_, r)| *r == CaptureRole::Backlit)
+            .map(|(c, _)| c)
+    }
+
+    /// The projector checkerboard captures.
+    pub fn pattern_captures(&self) -> impl Iterator<Item = &Capture> {
+        self.captures_with_role()
+            .filter(|(_, r)| matches!(r, CaptureRole::Pattern { .. }))
+            .map(|(c, _)| c)
+    }
+
+    /// The camera of this position.
+    pub fn pinhole(&self, intrinsics: Intrinsics) -> PinholeCamera {
+        PinholeCamera::new(intrinsics, self.camera_to_world)
+    }
+}
+
 impl Manifest {
     pub fn position(&self, name: &str) -> Option<&Position> {
         self.positions.iter().find(|p| p.name == name)
+    }
+
+    /// Parses and validates `scan.toml` text; `path` names the file in
+    /// errors and warnings. Returns the manifest and one warning per key the
+    /// format does not know (each also logged with `tracing::warn!`).
+    pub fn parse(text: &str, path: &Path) -> Result<(Manifest, Vec<String>), ScanError> {
+        parse::parse(text, path)
+    }
+
+    /// Reads and validates a `scan.toml` file (see [`Manifest::parse`]).
+    pub fn read(path: &Path) -> Result<(Manifest, Vec<String>), ScanError> {
+        let text = std::fs::read_to_string(path).map_err(|e| ScanError::io(path, e))?;
+        Self::parse(&text, path)
+    }
+
+    /// The manifest as `scan.toml` text. For a manifest that passed
+    /// validation, `Manifest::parse(&m.to_toml(), ..)` gives back exactly
+    /// `m`; a hand-built manifest that breaks a rule produces text that
+    /// fails to parse with the corresponding error.
+    pub fn to_toml(&self) -> String {
+        write::to_toml(self)
     }
 }

@@ -3,8 +3,40 @@
 //! Positions are f32: the ray-casting hot path works in f32, which keeps
 //! relative precision for scenes from 1e-3 to 1e3 units (hits are offset by
 //! a scale-relative epsilon, see [`crate::bvh`]).
+//!
+//! Boundaries: plain data plus the checks ([`Mesh::validate`]) every reader
+//! and writer applies; file formats live in [`crate::mesh_io`], ray casting
+//! in [`crate::bvh`].
 
 use glam::{Vec2, Vec3};
+
+/// Why a [`Mesh`] cannot be used: the one list of structural checks shared
+/// by the readers, the writers and code that builds meshes itself.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum MeshDefect {
+    #[error("the mesh has no triangles")]
+    NoTriangles,
+    #[error("triangle {triangle} refers to vertex {index}, but there are {vertex_count} vertices")]
+    IndexOutOfRange {
+        triangle: usize,
+        index: u32,
+        vertex_count: usize,
+    },
+    #[error("vertex {vertex} has a non-finite position")]
+    NonFinitePosition { vertex: usize },
+    /// Zero-length normals are allowed (shading falls back to the geometric
+    /// normal); NaN or infinite ones are not.
+    #[error("vertex {vertex} has a NaN or infinite normal")]
+    NonFiniteNormal { vertex: usize },
+    #[error("vertex {vertex} has a NaN or infinite texture coordinate")]
+    NonFiniteUv { vertex: usize },
+    #[error("{what} has {len} entries but there are {vertex_count} vertices")]
+    LengthMismatch {
+        what: &'static str,
+        len: usize,
+        vertex_count: usize,
+    },
+}
 
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Mesh {
@@ -87,6 +119,51 @@ impl Mesh {
                 .iter()
                 .fold((first, first), |(lo, hi), &p| (lo.min(p), hi.max(p))),
         )
+    }
+
+    /// Checks what every consumer relies on: at least one triangle, indices
+    /// in range, per-vertex attributes of the right length, finite values.
+    pub fn validate(&self) -> Result<(), MeshDefect> {
+        let vertex_count = self.positions.len();
+        if self.triangles.is_empty() {
+            return Err(MeshDefect::NoTriangles);
+        }
+        for (what, len) in [
+            ("normals", self.normals.as_ref().map(Vec::len)),
+            ("uvs", self.uvs.as_ref().map(Vec::len)),
+        ] {
+            if let Some(len) = len.filter(|&len| len != vertex_count) {
+                return Err(MeshDefect::LengthMismatch {
+                    what,
+                    len,
+                    vertex_count,
+                });
+            }
+        }
+        if let Some(vertex) = self.positions.iter().position(|p| !p.is_finite()) {
+            return Err(MeshDefect::NonFinitePosition { vertex });
+        }
+        if let Some(vertex) = self
+            .normals
+            .iter()
+            .flatten()
+            .position(|n| !n.is_finite())
+        {
+            return Err(MeshDefect::NonFiniteNormal { vertex });
+        }
+        if let Some(vertex) = self.uvs.iter().flatten().position(|t| !t.is_finite()) {
+            return Err(MeshDefect::NonFiniteUv { vertex });
+        }
+        for (triangle, tri) in self.triangles.iter().enumerate() {
+            if let Some(&index) = tri.iter().find(|&&i| i as usize >= vertex_count) {
+                return Err(MeshDefect::IndexOutOfRange {
+                    triangle,
+                    index,
+                    vertex_count,
+                });
+            }
+        }
+        Ok(())
     }
 
     /// Area-weighted vertex normals from the triangles, replacing any present.

@@ -5,10 +5,45 @@
 //! here: procedural geometry, parameter maps, rig randomization, scene kinds)
 //! and the renderer (`crate::render`).
 
+pub mod color;
+pub mod geometry;
+pub mod kinds;
+pub mod maps;
+pub mod noise;
+
 use crate::material::Material;
 use glam::{DMat4, Vec2, Vec3};
 use matscan_scan::{camera::Intrinsics, raster::Raster, Mesh, SurfacePoint};
 use std::path::PathBuf;
+
+/// What can go wrong building a scene from user input.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum SceneError {
+    #[error("unknown scene kind `{name}` (expected one of: {expected})")]
+    UnknownKind { name: String, expected: String },
+    #[error("unknown geometry `{name}` (expected one of: {expected})")]
+    UnknownGeometry { name: String, expected: String },
+    #[error("the mesh has no triangles")]
+    EmptyMesh,
+    #[error("triangle {triangle} refers to vertex {index}, but the mesh has {count} vertices")]
+    IndexOutOfRange {
+        triangle: usize,
+        index: u32,
+        count: usize,
+    },
+    #[error("vertex {0} has a non-finite position")]
+    NonFinitePosition(usize),
+    #[error("the mesh has {got} {what} for {count} vertices")]
+    AttributeLength {
+        what: &'static str,
+        got: usize,
+        count: usize,
+    },
+    #[error("vertex {0} has a non-finite texture coordinate")]
+    NonFiniteUv(usize),
+    #[error("the mesh has no extent (all its vertices coincide)")]
+    Degenerate,
+}
 
 /// A texture in the mesh's UV space (origin bottom left, wrapped), or one
 /// value everywhere.

@@ -1,0 +1,261 @@
+//! Ray-casting benchmark: builds a ~524k-triangle displaced cube-sphere in
+//! code and prints the BVH build time and rays per second (median of
+//! several runs) for coherent primary rays and incoherent random rays,
+//! closest hit and occlusion, on one thread and on every core.
+//!
+//! Run: `cargo run --release -p matscan-scan --example raycast_bench`.
+//! The figures go into the `//!` doc of `scan/src/bvh.rs`.
+
+use glam::{Vec2, Vec3};
+use matscan_scan::bvh::{Bvh, Ray, RayCaster};
+use matscan_scan::Mesh;
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg64;
+use std::time::{Duration, Instant};
+
+const RUNS: usize = 5;
+
+fn main() {
+    let cells = 209; // 6 faces x 209^2 quads x 2 = 524 172 triangles
+    let mesh = displaced_cube_sphere(cells);
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    println!(
+        "mesh: {} triangles, {} vertices; {threads} hardware threads",
+        mesh.triangle_count(),
+        mesh.positions.len()
+    );
+
+    let build = median_pair(|| {
+        let clock = Clock::start();
+        let bvh = Bvh::build(&mesh);
+        std::hint::black_box(bvh.node_count());
+        clock.stop()
+    });
+    println!(
+        "build: {:.1} ms wall, {:.1} ms on-CPU (median of {RUNS})",
+        ms(build.0),
+        ms(build.1)
+    );
+
+    let caster = RayCaster::new(mesh);
+    println!("nodes: {}", caster.bvh.node_count());
+
+    let primary = primary_rays(1024, 512);
+    let random = random_rays(primary.len(), 7);
+    let light = Vec3::new(2.0, 2.5, -3.0);
+    // Shadow segments from the primary hits to a point light: coherent
+    // occlusion queries as the renderer issues them.
+    let shadow: Vec<Ray> = primary
+        .iter()
+        .filter_map(|r| caster.closest(r))
+        .map(|(_, s)| {
+            let from = caster.offset(s.position, s.geometric_normal);
+            let d = light - from;
+            Ray::segment(from, d.normalize(), 0.0, d.length())
+        })
+        .collect();
+
+    let primary_hits = primary.iter().filter(|r| caster.bvh.intersect(r).is_some()).count();
+    let random_hits = random.iter().filter(|r| caster.bvh.intersect(r).is_some()).count();
+    println!(
+        "primary: {} rays ({:.0}% hit); random: {} rays ({:.0}% hit); shadow: {} rays",
+        primary.len(),
+        100.0 * primary_hits as f64 / primary.len() as f64,
+        random.len(),
+        100.0 * random_hits as f64 / random.len() as f64,
+        shadow.len()
+    );
+
+    let bvh = &caster.bvh;
+    let closest = |rays: &[Ray]| rays.iter().filter(|r| bvh.intersect(r).is_some()).count();
+    let occluded = |rays: &[Ray]| rays.iter().filter(|r| bvh.occluded(r)).count();
+    println!(
+        "{:<20} {:>16} {:>16} {:>16}",
+        "query (Mrays/s)",
+        "1 thread wall",
+        "1 thread on-CPU",
+        format!("{threads} threads wall")
+    );
+    for (name, rays, query) in [
+        ("primary closest", &primary, &closest as &(dyn Fn(&[Ray]) -> usize + Sync)),
+        ("random closest", &random, &closest),
+        ("shadow occluded", &shadow, &occluded),
+        ("random occluded", &random, &occluded),
+    ] {
+        let single = median_pair(|| {
+            let clock = Clock::start();
+            std::hint::black_box(query(rays));
+            clock.stop()
+        });
+        let multi = median(|| {
+            let t = Instant::now();
+            let chunk = rays.len().div_ceil(threads);
+            std::thread::scope(|s| {
+                for part in rays.chunks(chunk) {
+                    s.spawn(move || std::hint::black_box(query(part)));
+                }
+            });
+            t.elapsed()
+        });
+        println!(
+            "{name:<20} {:>16.2} {:>16.2} {:>16.2}",
+            mrays(rays.len(), single.0),
+            mrays(rays.len(), single.1),
+            mrays(rays.len(), multi)
+        );
+    }
+}
+
+fn median(mut f: impl FnMut() -> Duration) -> Duration {
+    let mut v: Vec<Duration> = (0..RUNS).map(|_| f()).collect();
+    v.sort();
+    v[RUNS / 2]
+}
+
+/// Medians of (wall, on-CPU) pairs, each sorted on its own.
+fn median_pair(mut f: impl FnMut() -> (Duration, Duration)) -> (Duration, Duration) {
+    let runs: Vec<_> = (0..RUNS).map(|_| f()).collect();
+    let mut wall: Vec<_> = runs.iter().map(|r| r.0).collect();
+    let mut cpu: Vec<_> = runs.iter().map(|r| r.1).collect();
+    wall.sort();
+    cpu.sort();
+    (wall[RUNS / 2], cpu[RUNS / 2])
+}
+
+/// Wall time plus this thread's on-CPU time (Linux `schedstat`), so that
+/// figures taken on a shared, loaded machine still say what one core does.
+/// Where `schedstat` is missing the on-CPU time is the wall time.
+struct Clock {
+    wall: Instant,
+    cpu: Option<u64>,
+}
+
+impl Clock {
+    fn start() -> Self {
+        Self {
+            wall: Instant::now(),
+            cpu: thread_cpu_ns(),
+        }
+    }
+
+    fn stop(&self) -> (Duration, Duration) {
+        let wall = self.wall.elapsed();
+        let cpu = match (self.cpu, thread_cpu_ns()) {
+            (Some(a), Some(b)) => Duration::from_nanos(b.saturating_sub(a)),
+            _ => wall,
+        };
+        (wall, cpu)
+    }
+}
+
+fn thread_cpu_ns() -> Option<u64> {
+    let s = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
+    s.split_whitespace().next()?.parse().ok()
+}
+
+fn ms(d: Duration) -> f64 {
+    d.as_secs_f64() * 1e3
+}
+
+fn mrays(n: usize, d: Duration) -> f64 {
+    n as f64 / d.as_secs_f64() / 1e6
+}
+
+/// A cube with `cells` x `cells` quads per face, pushed onto the unit sphere
+/// and displaced by a few octaves of smooth noise (radius 0.85 to 1.15).
+fn displaced_cube_sphere(cells: usize) -> Mesh {
+    let mut positions = Vec::new();
+    let mut uvs = Vec::new();
+    let mut triangles = Vec::new();
+    let axes = [
+        (Vec3::X, Vec3::Y, Vec3::Z),
+        (-Vec3::X, Vec3::Z, Vec3::Y),
+        (Vec3::Y, Vec3::Z, Vec3::X),
+        (-Vec3::Y, Vec3::X, Vec3::Z),
+        (Vec3::Z, Vec3::X, Vec3::Y),
+        (-Vec3::Z, Vec3::Y, Vec3::X),
+    ];
+    let n = cells + 1;
+    for (normal, a, b) in axes {
+        let base = positions.len() as u32;
+        for j in 0..n {
+            for i in 0..n {
+                let s = i as f32 / cells as f32;
+                let t = j as f32 / cells as f32;
+                let d = (normal + a * (2.0 * s - 1.0) + b * (2.0 * t - 1.0)).normalize();
+                positions.push(d * (1.0 + displacement(d)));
+                uvs.push(Vec2::new(s, t));
+            }
+        }
+        for j in 0..cells {
+            for i in 0..cells {
+                let v = |i: usize, j: usize| base + (j * n + i) as u32;
+                triangles.push([v(i, j), v(i + 1, j), v(i + 1, j + 1)]);
+                triangles.push([v(i, j), v(i + 1, j + 1), v(i, j + 1)]);
+            }
+        }
+    }
+    let mut mesh = Mesh {
+        positions,
+        normals: None,
+        uvs: Some(uvs),
+        triangles,
+    };
+    mesh.compute_vertex_normals();
+    mesh
+}
+
+fn displacement(d: Vec3) -> f32 {
+    let mut sum = 0.0;
+    let mut freq = 3.0;
+    let mut amp = 0.08;
+    for k in 0..5 {
+        let phase = k as f32 * 1.7;
+        sum += amp
+            * (freq * d.x + phase).sin()
+            * (freq * 1.3 * d.y + 2.0 * phase).sin()
+            * (freq * 0.7 * d.z - phase).sin();
+        freq *= 2.1;
+        amp *= 0.45;
+    }
+    sum
+}
+
+/// Rays of a pinhole camera 3 units from the centre, scanline order.
+fn primary_rays(width: usize, height: usize) -> Vec<Ray> {
+    let eye = Vec3::new(0.3, -0.4, -3.0);
+    let forward = (-eye).normalize();
+    let right = forward.cross(Vec3::Y).normalize();
+    let up = right.cross(forward);
+    let f = 1.1 * width as f32 / 2.0;
+    let mut rays = Vec::with_capacity(width * height);
+    for y in 0..height {
+        for x in 0..width {
+            let px = (x as f32 + 0.5 - width as f32 / 2.0) / f;
+            let py = (y as f32 + 0.5 - height as f32 / 2.0) / f;
+            let dir = (forward + right * px - up * py).normalize();
+            rays.push(Ray::new(eye, dir));
+        }
+    }
+    rays
+}
+
+/// Rays from random points on a sphere of radius 3 towards random points
+/// in the ball of radius 1.2: no coherence between neighbours.
+fn random_rays(count: usize, seed: u64) -> Vec<Ray> {
+    let mut rng = Pcg64::seed_from_u64(seed);
+    let unit = |rng: &mut Pcg64| loop {
+        let p = Vec3::new(rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0));
+        if p.length_squared() <= 1.0 && p.length_squared() > 1e-6 {
+            return p;
+        }
+    };
+    (0..count)
+        .map(|_| {
+            let origin = unit(&mut rng).normalize() * 3.0;
+            let target = unit(&mut rng) * 1.2;
+            let d = target - origin;
+            Ray::segment(origin, d.normalize(), 0.0, d.length() * 2.0)
+        })
+        .collect()
+}

@@ -1,0 +1,18 @@
+//! Errors of rendering and of writing simulated bundles.
+
+use std::path::PathBuf;
+
+#[derive(Debug, thiserror::Error)]
+pub enum SimError {
+    /// Reading or writing a bundle, a mesh or an image failed.
+    #[error(transparent)]
+    Scan(#[from] matscan_scan::ScanError),
+    #[error("{path}: environment map: {message}")]
+    EnvironmentMap { path: PathBuf, message: String },
+    #[error("scene has no position {index} (it has {count})")]
+    NoSuchPosition { index: usize, count: usize },
+    #[error("position `{position}` has no rig light named `{light}`")]
+    NoSuchLight { position: String, light: String },
+    #[error("invalid render options: {0}")]
+    Options(String),
+}

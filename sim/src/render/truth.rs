@@ -1,0 +1,71 @@
+//! Ground-truth maps of a position: the material at the object's primary
+//! hit through each pixel centre (the contract's camera, so they line up
+//! pixel-exactly with the photos and the mask).
+//!
+//! Values follow the contract: basecolor as authored (this material model
+//! has no separate subsurface colour, so the "mixed subsurface basecolor"
+//! is the basecolor itself), roughness and metallic as authored,
+//! transmission and subsurface effective (`Material::effective_*`).
+//! Pixels off the object hold 0 and are false in `mask`.
+
+use super::world::{Surface, World};
+use crate::scene::MaterialField;
+use matscan_scan::raster::{MaskRaster, RgbRaster, ScalarRaster};
+use matscan_scan::PinholeCamera;
+use rayon::prelude::*;
+
+#[derive(Debug, Clone)]
+pub struct TruthMaps {
+    pub basecolor: RgbRaster,
+    pub roughness: ScalarRaster,
+    pub metallic: ScalarRaster,
+    pub transmission: ScalarRaster,
+    pub subsurface: ScalarRaster,
+    /// The object is hit through the pixel centre.
+    pub mask: MaskRaster,
+}
+
+/// Per-pixel truth: (basecolor, roughness, metallic, transmission,
+/// subsurface) where the object is hit.
+type Texel = Option<([f32; 3], f32, f32, f32, f32)>;
+
+pub fn render_truth(world: &World, camera: &PinholeCamera, field: &MaterialField) -> TruthMaps {
+    let (w, h) = (camera.intrinsics.width, camera.intrinsics.height);
+    let texels: Vec<Texel> = (0..w as usize * h as usize)
+        .into_par_iter()
+        .map(|i| {
+            let (x, y) = ((i % w as usize) as u32, (i / w as usize) as u32);
+            let hit = world.intersect(&camera.pixel_ray(x, y))?;
+            let Surface::Object(sp) = hit.surface else {
+                return None;
+            };
+            let m = field.at(&sp);
+            Some((
+                m.basecolor.to_array(),
+                m.roughness,
+                m.metallic,
+                m.effective_transmission(),
+                m.effective_subsurface(),
+            ))
+        })
+        .collect();
+    let scalar = |f: fn(&([f32; 3], f32, f32, f32, f32)) -> f32| {
+        ScalarRaster::from_fn(w, h, |x, y| {
+            texels[y as usize * w as usize + x as usize]
+                .as_ref()
+                .map_or(0.0, f)
+        })
+    };
+    TruthMaps {
+        basecolor: RgbRaster::from_fn(w, h, |x, y| {
+            texels[y as usize * w as usize + x as usize].map_or([0.0; 3], |t| t.0)
+        }),
+        roughness: scalar(|t| t.1),
+        metallic: scalar(|t| t.2),
+        transmission: scalar(|t| t.3),
+        subsurface: scalar(|t| t.4),
+        mask: MaskRaster::from_fn(w, h, |x, y| {
+            texels[y as usize * w as usize + x as usize].is_some()
+        }),
+    }
+}
