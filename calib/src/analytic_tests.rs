@@ -13,10 +13,10 @@ use crate::angles;
 use crate::geometry::position_geometry;
 use crate::lights::{light_maps, LightSource};
 use crate::maps::position_maps;
-use matscan_scan::bvh::RayCaster;
 use crate::synthetic::{icosphere, intrinsics, merge, point_light, projector, quad};
 use crate::warp::{correspondence, WarpOptions};
 use glam::{DMat4, DVec2, DVec3, Vec3};
+use matscan_scan::bvh::RayCaster;
 use matscan_scan::camera::look_at;
 use matscan_scan::{Intrinsics, Mesh, Pattern, PinholeCamera, Position, Raster};
 use std::sync::OnceLock;
@@ -100,7 +100,14 @@ fn sphere_maps_match_closed_forms() {
             compared += 1;
             let p = v3(g.position.get(x, y));
             assert_vec("position", x, y, p, p_true, TOL);
-            assert_close("depth", x, y, f64::from(*g.depth.get(x, y)), w2c.transform_point3(p_true).z, TOL);
+            assert_close(
+                "depth",
+                x,
+                y,
+                f64::from(*g.depth.get(x, y)),
+                w2c.transform_point3(p_true).z,
+                TOL,
+            );
             // Closed forms at the hit point.
             let to_cam = |v: DVec3| w2c.transform_vector3(v);
             let n = p.normalize();
@@ -109,9 +116,30 @@ fn sphere_maps_match_closed_forms() {
             assert_vec("normal", x, y, v3(g.normal.get(x, y)), to_cam(n), 1e-5);
             assert_vec("view", x, y, v3(g.view.get(x, y)), to_cam(v), 1e-5);
             assert_vec("light", x, y, v3(lm.direction.get(x, y)), to_cam(l), 1e-5);
-            assert_close("distance", x, y, f64::from(*lm.distance.get(x, y)), (light - p).length(), 1e-5);
-            assert_close("cos_nv", x, y, f64::from(*g.cos_nv.get(x, y)), n.dot(v), 1e-5);
-            assert_close("cos_nl", x, y, f64::from(*lm.cos_nl.get(x, y)), n.dot(l), 1e-5);
+            assert_close(
+                "distance",
+                x,
+                y,
+                f64::from(*lm.distance.get(x, y)),
+                (light - p).length(),
+                1e-5,
+            );
+            assert_close(
+                "cos_nv",
+                x,
+                y,
+                f64::from(*g.cos_nv.get(x, y)),
+                n.dot(v),
+                1e-5,
+            );
+            assert_close(
+                "cos_nl",
+                x,
+                y,
+                f64::from(*lm.cos_nl.get(x, y)),
+                n.dot(l),
+                1e-5,
+            );
             let vs = v - n * v.dot(n);
             let ls = l - n * l.dot(n);
             if vs.length() > 1e-3 && ls.length() > 1e-3 {
@@ -119,7 +147,14 @@ fn sphere_maps_match_closed_forms() {
                 assert_close("cos_vl", x, y, f64::from(*lm.cos_vl.get(x, y)), want, 1e-4);
             }
             // Also against the fully analytic normal at the true point.
-            assert_vec("normal (analytic)", x, y, v3(g.normal.get(x, y)), to_cam(n_true), 2e-4);
+            assert_vec(
+                "normal (analytic)",
+                x,
+                y,
+                v3(g.normal.get(x, y)),
+                to_cam(n_true),
+                2e-4,
+            );
             assert_eq!(*lm.lit.get(x, y), n.dot(l) > 0.0, "lit at ({x},{y})");
         }
     }
@@ -165,11 +200,25 @@ fn plane_maps_match_closed_forms_everywhere() {
             let l = (light - p).normalize();
             let to_cam = |u: DVec3| w2c.transform_vector3(u);
             assert_vec("position", x, y, v3(g.position.get(x, y)), p, TOL);
-            assert_close("depth", x, y, (*g.depth.get(x, y)).into(), w2c.transform_point3(p).z, TOL);
+            assert_close(
+                "depth",
+                x,
+                y,
+                (*g.depth.get(x, y)).into(),
+                w2c.transform_point3(p).z,
+                TOL,
+            );
             assert_vec("normal", x, y, v3(g.normal.get(x, y)), to_cam(n), TOL);
             assert_vec("view", x, y, v3(g.view.get(x, y)), to_cam(v), TOL);
             assert_vec("light", x, y, v3(lm.direction.get(x, y)), to_cam(l), TOL);
-            assert_close("distance", x, y, (*lm.distance.get(x, y)).into(), (light - p).length(), TOL);
+            assert_close(
+                "distance",
+                x,
+                y,
+                (*lm.distance.get(x, y)).into(),
+                (light - p).length(),
+                TOL,
+            );
             assert_close("cos_nv", x, y, (*g.cos_nv.get(x, y)).into(), n.dot(v), TOL);
             assert_close("cos_nl", x, y, (*lm.cos_nl.get(x, y)).into(), n.dot(l), TOL);
             let vs = v - n * v.dot(n);
@@ -266,14 +315,22 @@ fn zero_length_and_nan_mesh_normals_fall_back_to_the_face_normal() {
     let scene = RayCaster::new(mesh);
     let eye = DVec3::new(0.0, 0.0, -2.0);
     let c2w = look_at(eye, DVec3::ZERO, DVec3::new(0.0, -1.0, 0.0));
-    let pos = position("p0", c2w, vec![point_light("l", DVec3::new(0.3, 0.0, -1.0))]);
+    let pos = position(
+        "p0",
+        c2w,
+        vec![point_light("l", DVec3::new(0.3, 0.0, -1.0))],
+    );
     let maps = position_maps(&scene, &intrinsics(16, 40.0), &pos);
     let w2c = c2w.inverse();
     let want = w2c.transform_vector3(DVec3::new(0.0, 0.0, -1.0));
     for n in &maps.geometry.normal.data {
         assert!((v3(n) - want).length() < 1e-6, "normal {n:?}");
     }
-    assert!(maps.lights[0].cos_nl.data.iter().all(|c| c.is_finite() && *c > 0.0));
+    assert!(maps.lights[0]
+        .cos_nl
+        .data
+        .iter()
+        .all(|c| c.is_finite() && *c > 0.0));
 }
 
 #[test]
@@ -299,7 +356,12 @@ fn silhouettes_grazing_views_and_degenerate_lights_stay_finite() {
     for r in [&g.position, &g.normal, &g.geometric_normal, &g.view] {
         assert!(all_finite(r));
     }
-    assert!(g.depth.data.iter().chain(&g.cos_nv.data).all(|v| v.is_finite()));
+    assert!(g
+        .depth
+        .data
+        .iter()
+        .chain(&g.cos_nv.data)
+        .all(|v| v.is_finite()));
     for lm in &maps.lights {
         assert!(all_finite(&lm.direction));
         for s in [&lm.distance, &lm.cos_nl, &lm.cos_vl] {
@@ -318,7 +380,11 @@ fn silhouettes_grazing_views_and_degenerate_lights_stay_finite() {
 #[test]
 fn sphere_in_a_distorting_camera_projects_back_to_pixel_centres() {
     let scene = fine_sphere();
-    let c2w = look_at(DVec3::new(0.2, 0.0, -1.4), DVec3::ZERO, DVec3::new(0.0, -1.0, 0.0));
+    let c2w = look_at(
+        DVec3::new(0.2, 0.0, -1.4),
+        DVec3::ZERO,
+        DVec3::new(0.0, -1.0, 0.0),
+    );
     let mut intr = intrinsics(32, 50.0);
     intr.distortion = [0.2, -0.05, 0.002, 0.001, 0.01];
     let cam = PinholeCamera::new(intr, c2w);
@@ -342,7 +408,11 @@ fn projector_pattern_is_the_checker_at_the_analytic_projector_pixel() {
     let scene = plane_scene();
     let eye = DVec3::new(0.0, 0.0, -2.0);
     let c2w = look_at(eye, DVec3::ZERO, DVec3::new(0.0, -1.0, 0.0));
-    let p2w = look_at(DVec3::new(0.4, 0.1, -2.0), DVec3::ZERO, DVec3::new(0.0, -1.0, 0.0));
+    let p2w = look_at(
+        DVec3::new(0.4, 0.1, -2.0),
+        DVec3::ZERO,
+        DVec3::new(0.0, -1.0, 0.0),
+    );
     let pintr = Intrinsics {
         width: 320,
         height: 200,
@@ -359,7 +429,12 @@ fn projector_pattern_is_the_checker_at_the_analytic_projector_pixel() {
         high: 0.9,
     };
     let mut pos = position("p0", c2w, vec![projector("proj", p2w, pintr)]);
-    pos.captures = vec![crate::synthetic::capture("p0", "checker", &["proj"], Some(pattern))];
+    pos.captures = vec![crate::synthetic::capture(
+        "p0",
+        "checker",
+        &["proj"],
+        Some(pattern),
+    )];
     let intr = intrinsics(64, 70.0);
     let maps = position_maps(&scene, &intr, &pos);
     let pm = &maps.projectors[0];
@@ -376,7 +451,8 @@ fn projector_pattern_is_the_checker_at_the_analytic_projector_pixel() {
             let p = o + d * ray_plane(o, d).unwrap();
             let q = proj.project(p).unwrap();
             let in_image = q.x >= 0.0 && q.y >= 0.0 && q.x < 320.0 && q.y < 200.0;
-            let near_edge = |c: f64, phase: f64| ((c - phase) / 8.0 - ((c - phase) / 8.0).round()).abs() < 1e-3;
+            let near_edge =
+                |c: f64, phase: f64| ((c - phase) / 8.0 - ((c - phase) / 8.0).round()).abs() < 1e-3;
             if !in_image {
                 assert_eq!(*values.get(x, y), 0.0);
                 assert!(!*maps.lights[0].lit.get(x, y));
@@ -393,7 +469,10 @@ fn projector_pattern_is_the_checker_at_the_analytic_projector_pixel() {
             inside += 1;
         }
     }
-    assert!(inside > 1000 && outside > 50, "inside {inside}, outside {outside}");
+    assert!(
+        inside > 1000 && outside > 50,
+        "inside {inside}, outside {outside}"
+    );
 }
 
 fn two_views() -> (DMat4, DMat4) {
@@ -432,7 +511,10 @@ fn warp_maps_plane_points_to_their_analytic_pixels_and_resamples_bilinearly() {
                 let got = warped.get(x, y);
                 let want = f(q.x, q.y);
                 for c in 0..3 {
-                    assert!((got[c] - want[c]).abs() < 1e-4, "({x},{y}) {got:?} {want:?}");
+                    assert!(
+                        (got[c] - want[c]).abs() < 1e-4,
+                        "({x},{y}) {got:?} {want:?}"
+                    );
                 }
                 valid += 1;
             } else if !(q.x >= 0.0 && q.y >= 0.0 && q.x < 40.0 && q.y < 40.0) {
@@ -442,7 +524,10 @@ fn warp_maps_plane_points_to_their_analytic_pixels_and_resamples_bilinearly() {
         }
     }
     assert!(valid > 800, "{valid}");
-    assert_eq!(corr.valid_pixels(), corr.valid.data.iter().filter(|v| **v).count());
+    assert_eq!(
+        corr.valid_pixels(),
+        corr.valid.data.iter().filter(|v| **v).count()
+    );
 }
 
 #[test]
@@ -476,7 +561,10 @@ fn warp_rejects_points_the_other_camera_cannot_see() {
             let t = (sphere_centre - p).dot(d).max(0.0);
             let miss = (p + d * t - sphere_centre).length();
             if miss < 0.28 {
-                assert!(!*corr.valid.get(x, y), "({x},{y}) hidden from p1 but matched");
+                assert!(
+                    !*corr.valid.get(x, y),
+                    "({x},{y}) hidden from p1 but matched"
+                );
                 hidden += 1;
             } else if miss > 0.33 && *corr.valid.get(x, y) {
                 seen += 1;

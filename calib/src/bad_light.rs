@@ -121,7 +121,12 @@ pub fn bad_light(
             continue;
         };
         let lit = load(source, camera, position, capture)?;
-        let diff = difference(&lit, capture.exposure_s, &ambient, ambient_capture.exposure_s);
+        let diff = difference(
+            &lit,
+            capture.exposure_s,
+            &ambient,
+            ambient_capture.exposure_s,
+        );
         let mut per_pixel: Vec<f32> = diff.data.iter().map(|c| c[0].max(c[1]).max(c[2])).collect();
         let max_difference = robust_max(&mut per_pixel, options).unwrap_or(0.0);
         captures.push(CaptureLight {
@@ -167,10 +172,18 @@ mod tests {
         let (pos, scan) = rig(0.0);
         let bl = bad_light(&intrinsics(16, 40.0), &pos, &scan, &Default::default()).unwrap();
         assert!(bl.is_bad());
-        let dim: Vec<_> = bl.captures.iter().filter(|c| c.too_dim).map(|c| &c.capture).collect();
+        let dim: Vec<_> = bl
+            .captures
+            .iter()
+            .filter(|c| c.too_dim)
+            .map(|c| &c.capture)
+            .collect();
         assert_eq!(dim, ["flash1"]);
         let reason = bl.reason().unwrap();
-        assert!(reason.contains("`p3`") && reason.contains("`flash1`"), "{reason}");
+        assert!(
+            reason.contains("`p3`") && reason.contains("`flash1`"),
+            "{reason}"
+        );
     }
 
     #[test]
@@ -180,16 +193,21 @@ mod tests {
         assert!(!bl.is_bad(), "{:?}", bl.captures);
         assert!(bl.reason().is_none());
         let (pos, scan) = rig(0.09);
-        assert!(bad_light(&intrinsics(16, 40.0), &pos, &scan, &Default::default())
-            .unwrap()
-            .is_bad());
+        assert!(
+            bad_light(&intrinsics(16, 40.0), &pos, &scan, &Default::default())
+                .unwrap()
+                .is_bad()
+        );
         assert_eq!(THESIS_THRESHOLD, 0.1);
     }
 
     #[test]
     fn a_few_hot_pixels_do_not_make_a_drowned_light_visible() {
         let (pos, mut scan) = rig(0.0);
-        let photo = scan.photos.get_mut(&("p3".into(), "flash1".into())).unwrap();
+        let photo = scan
+            .photos
+            .get_mut(&("p3".into(), "flash1".into()))
+            .unwrap();
         *photo.get_mut(3, 3) = [9.0; 3];
         let bl = bad_light(&intrinsics(16, 40.0), &pos, &scan, &Default::default()).unwrap();
         assert!(bl.is_bad());
@@ -200,8 +218,15 @@ mod tests {
         let (mut pos, mut scan) = rig(0.0);
         // flash1 taken at twice the exposure: its photo is twice as bright
         // yet carries no light of its own.
-        pos.captures.iter_mut().find(|c| c.name == "flash1").unwrap().exposure_s = 0.04;
-        let photo = scan.photos.get_mut(&("p3".into(), "flash1".into())).unwrap();
+        pos.captures
+            .iter_mut()
+            .find(|c| c.name == "flash1")
+            .unwrap()
+            .exposure_s = 0.04;
+        let photo = scan
+            .photos
+            .get_mut(&("p3".into(), "flash1".into()))
+            .unwrap();
         photo.data.iter_mut().for_each(|p| *p = p.map(|v| v * 2.0));
         let bl = bad_light(&intrinsics(16, 40.0), &pos, &scan, &Default::default()).unwrap();
         let f1 = bl.captures.iter().find(|c| c.capture == "flash1").unwrap();

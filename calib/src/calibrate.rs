@@ -12,9 +12,9 @@ use crate::bad_light::{bad_light, BadLight, BadLightOptions};
 use crate::error::CalibError;
 use crate::maps::{position_maps, PositionMaps};
 use crate::photos::PhotoSource;
-use matscan_scan::bvh::RayCaster;
 use crate::warp::{correspondence, Correspondence, WarpOptions};
 use crate::white_reference::{white_reference, WhiteReference, WhiteReferenceOptions};
+use matscan_scan::bvh::RayCaster;
 use matscan_scan::{Bundle, Manifest};
 
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -102,19 +102,17 @@ pub fn calibrate(
     let (maps, correspondences) = geometry_maps(manifest, caster, &options.warp);
     let mut positions = Vec::with_capacity(maps.len());
     for (position, maps) in manifest.positions.iter().zip(maps) {
-        let light_response = match white_reference(
-            &manifest.camera,
-            position,
-            source,
-            &options.white_reference,
-        ) {
-            Err(e @ (CalibError::NoWhiteReference { .. }
-            | CalibError::TooFewReferencePixels { .. })) => {
-                tracing::warn!("{e}");
-                Err(e)
-            }
-            other => Ok(other?),
-        };
+        let light_response =
+            match white_reference(&manifest.camera, position, source, &options.white_reference) {
+                Err(
+                    e @ (CalibError::NoWhiteReference { .. }
+                    | CalibError::TooFewReferencePixels { .. }),
+                ) => {
+                    tracing::warn!("{e}");
+                    Err(e)
+                }
+                other => Ok(other?),
+            };
         let bad_light = bad_light(&manifest.camera, position, source, &options.bad_light)?;
         if let Some(reason) = bad_light.reason() {
             tracing::warn!("{reason}");

@@ -121,7 +121,9 @@ pub fn panel_span(panel: &MaskRaster) -> MaskRaster {
     let w = panel.width as usize;
     for y in 0..panel.height as usize {
         let row = &panel.data[y * w..(y + 1) * w];
-        if let (Some(first), Some(last)) = (row.iter().position(|&p| p), row.iter().rposition(|&p| p)) {
+        if let (Some(first), Some(last)) =
+            (row.iter().position(|&p| p), row.iter().rposition(|&p| p))
+        {
             for x in first..=last {
                 out.data[y * w + x] = true;
             }
@@ -159,11 +161,12 @@ pub fn check(
     let mut positions = Vec::new();
     let mut problems = Vec::new();
     for position in &manifest.positions {
-        let pc = calibration
-            .position(&position.name)
-            .ok_or_else(|| CalibError::UnknownPosition {
-                position: position.name.clone(),
-            })?;
+        let pc =
+            calibration
+                .position(&position.name)
+                .ok_or_else(|| CalibError::UnknownPosition {
+                    position: position.name.clone(),
+                })?;
         let maps = &pc.maps;
         let projected = &maps.geometry.mask;
         let ambient_capture = position.ambient().ok_or_else(|| CalibError::NoAmbient {
@@ -176,7 +179,13 @@ pub fn check(
             .find(|c| c.role(&position.lights) == CaptureRole::Backlit);
         let silhouette = match (source.object_mask(position)?, backlit) {
             (Some(mask), _) => {
-                crate::photos::check_size(camera, position, "object mask", mask.width, mask.height)?;
+                crate::photos::check_size(
+                    camera,
+                    position,
+                    "object mask",
+                    mask.width,
+                    mask.height,
+                )?;
                 let (iou, projected_pixels, photo_pixels) = iou(projected, &mask, None);
                 Some(SilhouetteCheck {
                     source: SilhouetteSource::Mask,
@@ -187,7 +196,12 @@ pub fn check(
             }
             (None, Some(capture)) => {
                 let lit = load(source, camera, position, capture)?;
-                let diff = difference(&lit, capture.exposure_s, &ambient, ambient_capture.exposure_s);
+                let diff = difference(
+                    &lit,
+                    capture.exposure_s,
+                    &ambient,
+                    ambient_capture.exposure_s,
+                );
                 let panel = segment_panel(&diff, options.panel_threshold);
                 let span = panel_span(&panel);
                 let mut object = span.clone();
@@ -221,7 +235,12 @@ pub fn check(
                 continue;
             };
             let lit = load(source, camera, position, capture)?;
-            let diff = difference(&lit, capture.exposure_s, &ambient, ambient_capture.exposure_s);
+            let diff = difference(
+                &lit,
+                capture.exposure_s,
+                &ambient,
+                ambient_capture.exposure_s,
+            );
             let pairs: Vec<(f64, f64)> = (0..projected.data.len())
                 .filter(|&i| projected.data[i])
                 .map(|i| {

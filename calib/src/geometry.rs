@@ -18,8 +18,8 @@
 
 use crate::angles::cos_between;
 use crate::par::par_raster;
-use matscan_scan::bvh::RayCaster;
 use glam::{DVec3, Vec2};
+use matscan_scan::bvh::RayCaster;
 use matscan_scan::raster::{MaskRaster, RgbRaster, ScalarRaster};
 use matscan_scan::{PinholeCamera, Raster};
 

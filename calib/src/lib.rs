@@ -38,7 +38,9 @@ pub mod warp;
 pub mod white_reference;
 pub mod write;
 
-pub use calibrate::{calibrate, calibrate_bundle, CalibOptions, PositionCalibration, ScanCalibration};
+pub use calibrate::{
+    calibrate, calibrate_bundle, CalibOptions, PositionCalibration, ScanCalibration,
+};
 pub use error::CalibError;
 pub use maps::{position_maps, PositionMaps};
 pub use photos::{MemoryScan, PhotoSource};

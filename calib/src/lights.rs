@@ -17,17 +17,17 @@
 use crate::angles::{cos_between, cos_vl};
 use crate::geometry::{to_f32, to_f64, PositionGeometry};
 use crate::par::par_raster;
-use matscan_scan::bvh::RayCaster;
 use glam::{DMat4, DVec3};
+use matscan_scan::bvh::RayCaster;
 use matscan_scan::raster::{MaskRaster, RgbRaster, ScalarRaster};
 use matscan_scan::{Intrinsics, Light, LightKind, PinholeCamera};
 
 /// Where a light sits and how far it shines.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub enum LightSource {
     Point(DVec3),
     /// A pinhole projector: it lights only what falls inside its image.
-    Projector(PinholeCamera),
+    Projector(Box<PinholeCamera>),
 }
 
 impl LightSource {
@@ -38,10 +38,10 @@ impl LightSource {
             LightKind::Projector {
                 projector_to_world,
                 intrinsics,
-            } => Some(LightSource::Projector(PinholeCamera::new(
+            } => Some(LightSource::Projector(Box::new(PinholeCamera::new(
                 intrinsics,
                 projector_to_world,
-            ))),
+            )))),
             LightKind::Backlight => None,
         }
     }

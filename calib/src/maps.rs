@@ -32,7 +32,11 @@ impl PositionMaps {
 }
 
 /// Computes every map of `position` seen through `intrinsics`.
-pub fn position_maps(caster: &RayCaster, intrinsics: &Intrinsics, position: &Position) -> PositionMaps {
+pub fn position_maps(
+    caster: &RayCaster,
+    intrinsics: &Intrinsics,
+    position: &Position,
+) -> PositionMaps {
     let camera = PinholeCamera::new(*intrinsics, position.camera_to_world);
     let geometry = position_geometry(caster, &camera);
     let lights: Vec<LightMaps> = position
@@ -40,7 +44,13 @@ pub fn position_maps(caster: &RayCaster, intrinsics: &Intrinsics, position: &Pos
         .iter()
         .filter_map(|l| LightSource::of(l).map(|s| (l, s)))
         .map(|(l, source)| {
-            light_maps(caster, &position.camera_to_world, &geometry, &l.name, source)
+            light_maps(
+                caster,
+                &position.camera_to_world,
+                &geometry,
+                &l.name,
+                source,
+            )
         })
         .collect();
     let projectors = lights

@@ -104,10 +104,16 @@ fn a_drowned_position_is_left_out_with_a_reason() {
     let ambient = scan.photos[&("p1".to_string(), "ambient".to_string())].clone();
     scan.insert_photo("p1", "flash0", ambient);
     let cal = calibrate(&manifest, &caster, &scan, &CalibOptions::default()).unwrap();
-    let names: Vec<_> = cal.usable_positions().map(|p| p.maps.position.as_str()).collect();
+    let names: Vec<_> = cal
+        .usable_positions()
+        .map(|p| p.maps.position.as_str())
+        .collect();
     assert_eq!(names, ["p0", "p2"]);
     let reason = cal.summary().positions[1].left_out.clone().unwrap();
-    assert!(reason.contains("p1") && reason.contains("flash0"), "{reason}");
+    assert!(
+        reason.contains("p1") && reason.contains("flash0"),
+        "{reason}"
+    );
 }
 
 #[test]
@@ -127,7 +133,10 @@ fn check_passes_a_true_calibration_and_catches_a_misplaced_light() {
         }
     }
     let json: serde_json::Value = serde_json::from_str(&report.to_json()).unwrap();
-    assert_eq!(json["positions"][0]["silhouette"]["source"], "backlight_panel");
+    assert_eq!(
+        json["positions"][0]["silhouette"]["source"],
+        "backlight_panel"
+    );
 
     // The same photos, with flash1 claimed to be far to the side.
     let mut wrong = manifest.clone();
@@ -141,7 +150,11 @@ fn check_passes_a_true_calibration_and_catches_a_misplaced_light() {
     let cal = calibrate(&wrong, &caster, &scan, &CalibOptions::default()).unwrap();
     let report = check(&wrong, &cal, &scan, &CheckOptions::default()).unwrap();
     assert!(!report.passed());
-    assert!(report.problems.iter().all(|p| p.contains("flash1")), "{:?}", report.problems);
+    assert!(
+        report.problems.iter().all(|p| p.contains("flash1")),
+        "{:?}",
+        report.problems
+    );
 }
 
 #[test]

@@ -55,11 +55,7 @@ pub fn projector_maps(
         .filter(|c| c.role(&position.lights) == role)
         .filter_map(|c| c.pattern.map(|p| (c.name.clone(), p)))
         .map(|(name, pattern)| {
-            let values = exact.map(|q| {
-                q.map_or(0.0, |q| {
-                    pattern_value(&pattern, q) as f32
-                })
-            });
+            let values = exact.map(|q| q.map_or(0.0, |q| pattern_value(&pattern, q) as f32));
             (name, values)
         })
         .collect();

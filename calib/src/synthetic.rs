@@ -133,7 +133,7 @@ pub fn merge(parts: &[Mesh]) -> Mesh {
         out.positions.extend(&m.positions);
         match (&mut out.normals, &m.normals) {
             (Some(n), Some(mn)) => n.extend(mn),
-            (Some(n), None) => n.extend(std::iter::repeat(Vec3::ZERO).take(m.positions.len())),
+            (Some(n), None) => n.extend(std::iter::repeat_n(Vec3::ZERO, m.positions.len())),
             _ => {}
         }
         match (&mut out.uvs, &m.uvs) {

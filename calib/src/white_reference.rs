@@ -161,7 +161,13 @@ pub fn white_reference(
     let ambient = load(source, camera, position, ambient_capture)?;
     let (base_mask, reference_source) = match source.white_reference_mask(position)? {
         Some(mask) => {
-            check_size(camera, position, "white-reference mask", mask.width, mask.height)?;
+            check_size(
+                camera,
+                position,
+                "white-reference mask",
+                mask.width,
+                mask.height,
+            )?;
             (mask, ReferenceSource::Mask)
         }
         None => {
@@ -205,7 +211,12 @@ pub fn white_reference(
         if pixels < options.min_pixels {
             return Err(too_few(pixels));
         }
-        let diff = difference(&lit, capture.exposure_s, &ambient, ambient_capture.exposure_s);
+        let diff = difference(
+            &lit,
+            capture.exposure_s,
+            &ambient,
+            ambient_capture.exposure_s,
+        );
         let (rgb_minus_ambient, _) =
             robust_mean(&diff, &mask, options.trim).ok_or_else(|| too_few(0))?;
         responses.push(LightResponse {
@@ -261,7 +272,10 @@ mod tests {
     fn panel_response_drops_the_shadow_and_survives_outlier_pixels() {
         let (pos, mut scan) = scene();
         // A few saturated and dead pixels on the lit panel.
-        let photo = scan.photos.get_mut(&("p0".into(), "flash0".into())).unwrap();
+        let photo = scan
+            .photos
+            .get_mut(&("p0".into(), "flash0".into()))
+            .unwrap();
         for (x, y, v) in [(20, 3, 1e4f32), (25, 9, 1e4), (30, 30, 0.0), (16, 16, 5e3)] {
             *photo.get_mut(x, y) = [v; 3];
         }
@@ -301,8 +315,8 @@ mod tests {
         pos.white_reference_mask = Some("views/p0/white.png".into());
         scan.white_reference_masks
             .insert("p0".into(), Raster::from_fn(N, N, |x, y| x < 2 && y < 2));
-        let err = white_reference(&intrinsics(N, 40.0), &pos, &scan, &Default::default())
-            .unwrap_err();
+        let err =
+            white_reference(&intrinsics(N, 40.0), &pos, &scan, &Default::default()).unwrap_err();
         let msg = err.to_string();
         assert!(
             msg.contains("`p0`") && msg.contains("`flash0`") && msg.contains("only 4"),

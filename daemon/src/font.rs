@@ -57,17 +57,17 @@ pub const GLYPH_H: u32 = 7;
 /// Horizontal advance per character at scale 1 (glyph plus one column gap).
 pub const ADVANCE: u32 = GLYPH_W + 1;
 
-/// Draws `text` with its top-left corner at (`x`, `y`) into an RGB8 buffer
+/// Draws `text` with its top-left corner at (`x`, `y`) into an RGB float buffer
 /// of `width` x `height`, clipping at the edges.
 #[allow(clippy::too_many_arguments)]
 pub fn draw_text(
-    buf: &mut [u8],
+    buf: &mut [f32],
     width: u32,
     height: u32,
     x: u32,
     y: u32,
     scale: u32,
-    color: [u8; 3],
+    color: [f32; 3],
     text: &str,
 ) {
     for (k, c) in text.chars().enumerate() {
@@ -104,10 +104,10 @@ mod tests {
     #[test]
     fn draws_letter_pixels_inside_its_cell_only() {
         let (w, h) = (12, 9);
-        let mut buf = vec![0u8; (w * h * 3) as usize];
-        draw_text(&mut buf, w, h, 1, 1, 1, [255, 0, 0], "I");
+        let mut buf = vec![0f32; (w * h * 3) as usize];
+        draw_text(&mut buf, w, h, 1, 1, 1, [1.0, 0.0, 0.0], "I");
         // The top bar of I spans columns 1..4 of the glyph (0x0E).
-        let lit = |x: u32, y: u32| buf[((y * w + x) * 3) as usize] == 255;
+        let lit = |x: u32, y: u32| buf[((y * w + x) * 3) as usize] == 1.0;
         assert!(lit(2, 1) && lit(3, 1) && lit(4, 1));
         assert!(!lit(1, 1) && !lit(5, 1));
         // Nothing drawn outside the 5x7 cell.
@@ -116,8 +116,8 @@ mod tests {
 
     #[test]
     fn clips_text_running_past_the_edge() {
-        let mut buf = vec![0u8; 4 * 4 * 3];
-        draw_text(&mut buf, 4, 4, 2, 2, 2, [9, 9, 9], "WW");
-        assert!(buf.contains(&9));
+        let mut buf = vec![0f32; 4 * 4 * 3];
+        draw_text(&mut buf, 4, 4, 2, 2, 2, [0.5, 0.5, 0.5], "WW");
+        assert!(buf.contains(&0.5));
     }
 }

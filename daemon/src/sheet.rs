@@ -11,6 +11,7 @@
 use crate::font;
 use anyhow::{Context, Result};
 use matscan_scan::raster::{MaskRaster, Raster, RgbRaster, ScalarRaster};
+use matscan_scan::bundle::TruthImage;
 use matscan_scan::{Bundle, Param, TruthMap};
 use std::path::Path;
 
@@ -19,7 +20,8 @@ struct Tile {
     label: String,
     width: u32,
     height: u32,
-    rgb: Vec<u8>,
+    /// Linear RGB, clamped to [0, 1].
+    rgb: Vec<f32>,
 }
 
 const LABEL_H: u32 = 12;
@@ -51,13 +53,17 @@ pub fn draw_contact_sheet(scan: &Path, out: &Path) -> Result<()> {
 
         let mut truth = Vec::new();
         for param in Param::ALL {
-            if let Some(map) = bundle.read_truth(&position.name, &TruthMap::Param(param))? {
-                truth.push(tile_rgb(&format!("true {param}"), &map));
+            let label = format!("true {param}");
+            match bundle.read_truth(&position.name, &TruthMap::Param(param))? {
+                Some(TruthImage::Rgb(map)) => truth.push(tile_rgb(&label, &map)),
+                Some(TruthImage::Scalar(map)) => truth.push(tile_scalar(&label, &map)),
+                Some(TruthImage::Mask(map)) => truth.push(tile_mask(&label, &map)),
+                None => {}
             }
         }
         for capture in &position.captures {
             let illum = TruthMap::Illum(capture.name.clone());
-            if let Some(map) = bundle.read_truth(&position.name, &illum)? {
+            if let Some(TruthImage::Rgb(map)) = bundle.read_truth(&position.name, &illum)? {
                 let w = white_point(std::iter::once(&map));
                 truth.push(tile_rgb(
                     &format!("illum {}", capture.name),
@@ -105,14 +111,12 @@ fn white_point<'a>(images: impl Iterator<Item = &'a RgbRaster>) -> f32 {
     v.max(1e-12)
 }
 
-fn srgb8(linear: f32) -> u8 {
-    let c = if linear.is_finite() { linear.clamp(0.0, 1.0) } else { 0.0 };
-    let s = if c <= 0.003_130_8 {
-        12.92 * c
+fn unit(linear: f32) -> f32 {
+    if linear.is_finite() {
+        linear.clamp(0.0, 1.0)
     } else {
-        1.055 * c.powf(1.0 / 2.4) - 0.055
-    };
-    (s * 255.0 + 0.5) as u8
+        0.0
+    }
 }
 
 /// Box-downscales by an integer factor so tiles stay at most `MAX_TILE`.
@@ -133,7 +137,7 @@ fn tile_rgb(label: &str, img: &RgbRaster) -> Tile {
                     n += 1.0;
                 }
             }
-            rgb.extend(acc.map(|a| srgb8(a / n)));
+            rgb.extend(acc.map(|a| unit(a / n)));
         }
     }
     Tile {
@@ -148,7 +152,6 @@ fn tile_mask(label: &str, mask: &MaskRaster) -> Tile {
     tile_rgb(label, &mask.map(|&m| if m { [1.0; 3] } else { [0.0; 3] }))
 }
 
-#[allow(dead_code)]
 fn tile_scalar(label: &str, map: &ScalarRaster) -> Tile {
     tile_rgb(label, &map.map(|&v| [v; 3]))
 }
@@ -165,8 +168,8 @@ fn compose(title: &str, rows: &[(String, Vec<Tile>)], out: &Path) -> Result<()> 
     let width = (row_label_w + rows.iter().map(|(_, t)| row_w(t)).max().unwrap_or(0) + GAP)
         .max(font::text_width(title, 1) + 2 * GAP);
     let height = LABEL_H + GAP + rows.iter().map(|(_, t)| row_h(t) + GAP).sum::<u32>();
-    let mut buf = vec![32u8; (width * height * 3) as usize];
-    font::draw_text(&mut buf, width, height, GAP, 2, 1, [255, 255, 255], title);
+    let mut buf = vec![0.015f32; (width * height * 3) as usize];
+    font::draw_text(&mut buf, width, height, GAP, 2, 1, [1.0, 1.0, 1.0], title);
     let mut y = LABEL_H + GAP;
     for (label, tiles) in rows {
         font::draw_text(
@@ -176,12 +179,12 @@ fn compose(title: &str, rows: &[(String, Vec<Tile>)], out: &Path) -> Result<()> 
             GAP,
             y + LABEL_H,
             1,
-            [200, 200, 200],
+            [0.6, 0.6, 0.6],
             label,
         );
         let mut x = row_label_w;
         for t in tiles {
-            font::draw_text(&mut buf, width, height, x, y + 2, 1, [230, 230, 120], &t.label);
+            font::draw_text(&mut buf, width, height, x, y + 2, 1, [0.8, 0.8, 0.2], &t.label);
             for ty in 0..t.height {
                 let src = (ty * t.width * 3) as usize;
                 let dst = (((y + LABEL_H + ty) * width + x) * 3) as usize;
@@ -192,9 +195,13 @@ fn compose(title: &str, rows: &[(String, Vec<Tile>)], out: &Path) -> Result<()> 
         }
         y += row_h(tiles) + GAP;
     }
-    let img = Raster::from_vec(width, height, buf.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect())
-        .context("sheet buffer size")?;
-    matscan_scan::image_io::write_rgb8_png(out, &img)
+    let img = Raster::from_vec(
+        width,
+        height,
+        buf.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
+    )
+    .context("sheet buffer size")?;
+    matscan_scan::image_io::write_preview_png(out, &img)
         .with_context(|| format!("writing contact sheet {}", out.display()))?;
     Ok(())
 }

@@ -19,7 +19,9 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Writes `bytes` to `path` atomically (see the module docs).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), ScanError> {
-    write_atomic_with(path, |w| w.write_all(bytes).map_err(|e| ScanError::io(path, e)))
+    write_atomic_with(path, |w| {
+        w.write_all(bytes).map_err(|e| ScanError::io(path, e))
+    })
 }
 
 /// Lets `write` fill a buffered temporary file, then renames it onto

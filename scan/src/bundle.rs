@@ -510,7 +510,10 @@ impl BundleWriter {
         if map.kind() != kind {
             return Err(ScanError::format(
                 rel,
-                format!("truth map {map} is stored as {:?}, not {kind:?}", map.kind()),
+                format!(
+                    "truth map {map} is stored as {:?}, not {kind:?}",
+                    map.kind()
+                ),
             ));
         }
         self.path_for(rel)
@@ -521,7 +524,10 @@ impl BundleWriter {
     /// present), then publishes it at its final path. On error nothing is
     /// published and the temporary folder is removed.
     pub fn finish(self, manifest: &Manifest) -> Result<Bundle, ScanError> {
-        write_atomic(&self.path_for(MANIFEST_FILE)?, manifest.to_toml().as_bytes())?;
+        write_atomic(
+            &self.path_for(MANIFEST_FILE)?,
+            manifest.to_toml().as_bytes(),
+        )?;
         let check = Bundle::open(self.dir.path())?;
         let root = self.dir.publish()?;
         Ok(Bundle {

@@ -95,6 +95,13 @@ const OFFSET_MIN_MAGNITUDE: f32 = 1e-3;
 /// `1 + 2 γ(3)` (PBRT's bound on three f32 roundings): box exits are pushed
 /// out by this factor so rounding cannot cull a hit.
 const BOX_PAD: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
+/// The watertight test is exact in its decisions but works on rounded
+/// sheared coordinates, so it can accept a ray that passes a few ulps (of
+/// the ray origin's and the vertices' magnitudes) outside the triangle.
+/// Boxes are widened per ray by this many ulps of that magnitude so that
+/// culling never drops such a hit (bound with a margin: about 5 roundings
+/// of the shear and edge functions, times sqrt(3) for norms).
+const BOX_SLACK_ULPS: f32 = 16.0;
 
 /// One flattened node: 32 bytes. A leaf has `count > 0` triangles from
 /// `first` (leaf order); an inner node has `count == 0` and children
@@ -120,6 +127,8 @@ pub struct Bvh {
     tris: Vec<[Vec3; 3]>,
     /// Mesh triangle index of each entry of `tris`.
     ids: Vec<u32>,
+    /// Largest absolute coordinate of the root bounds (0 when empty).
+    magnitude: f32,
 }
 
 /// A triangle during the build: its bounds and mesh index.
@@ -180,8 +189,7 @@ impl Bvh {
                 continue;
             };
             tris_by_id.push([a, b, c]);
-            let cross = (b - a).cross(c - a);
-            if !(a.is_finite() && b.is_finite() && c.is_finite()) || cross == Vec3::ZERO {
+            if !hittable(&[a, b, c]) {
                 continue;
             }
             refs.push(PrimRef {
@@ -240,7 +248,15 @@ impl Bvh {
         }
         let tris = refs.iter().map(|r| tris_by_id[r.id as usize]).collect();
         let ids = refs.iter().map(|r| r.id).collect();
-        Self { pairs, tris, ids }
+        let magnitude = pairs
+            .first()
+            .map_or(0.0, |p| p.0[0].min.abs().max(p.0[0].max.abs()).max_element());
+        Self {
+            pairs,
+            tris,
+            ids,
+            magnitude,
+        }
     }
 
     /// Bounds of every triangle that can be hit; `None` when there are none.
@@ -261,7 +277,7 @@ impl Bvh {
     /// Closest hit with `t` in `(ray.t_min, ray.t_max)`; `None` for a miss or
     /// a ray with a non-finite origin or a zero or non-finite direction.
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        let pre = Prepared::new(ray)?;
+        let pre = Prepared::new(ray, self.magnitude)?;
         let mut t_max = ray.t_max;
         let mut best = None;
         let root = &self.pairs.first()?.0[0];
@@ -328,7 +344,7 @@ impl Bvh {
     /// Whether anything lies at `t` in `(ray.t_min, ray.t_max)`; stops at
     /// the first hit found. `false` for a ray that [`Bvh::intersect`] rejects.
     pub fn occluded(&self, ray: &Ray) -> bool {
-        let Some(pre) = Prepared::new(ray) else {
+        let Some(pre) = Prepared::new(ray, self.magnitude) else {
             return false;
         };
         let Some(root) = self.pairs.first().map(|p| &p.0[0]) else {
@@ -387,7 +403,17 @@ impl Bvh {
 /// `(1-u-v) a + u b + v c`. For brute-force references and one-off tests;
 /// `None` also for rays [`Bvh::intersect`] rejects.
 pub fn intersect_triangle(ray: &Ray, tri: &[Vec3; 3]) -> Option<(f32, f32, f32)> {
-    Prepared::new(ray)?.hit_triangle(tri, ray.t_min, ray.t_max)
+    if !hittable(tri) {
+        return None;
+    }
+    Prepared::new(ray, 0.0)?.hit_triangle(tri, ray.t_min, ray.t_max)
+}
+
+/// Finite with a non-zero (f32) cross product. Zero-area triangles are left
+/// out rather than tested: rounding in the sheared frame could report hits
+/// on them, with no meaningful normal.
+fn hittable([a, b, c]: &[Vec3; 3]) -> bool {
+    a.is_finite() && b.is_finite() && c.is_finite() && (*b - *a).cross(*c - *a) != Vec3::ZERO
 }
 
 /// Bounds of the triangles and of their centroids.
@@ -501,6 +527,10 @@ fn median_split(refs: &mut [PrimRef], centroids: &Aabb) -> usize {
 struct Prepared {
     origin: Vec3,
     inv_dir: Vec3,
+    /// `-origin` moved by the box slack: box `[min, max]` is tested as
+    /// `[min + low_shift, max + high_shift]` relative to the origin.
+    low_shift: Vec3,
+    high_shift: Vec3,
     /// Rows of the shear that maps the ray onto +z: with `kz` the axis of
     /// the largest direction component and `kx`, `ky` the two others,
     /// `shear_x · p = p[kx] - sx p[kz]`, `shear_y · p = p[ky] - sy p[kz]`
@@ -514,7 +544,8 @@ struct Prepared {
 }
 
 impl Prepared {
-    fn new(ray: &Ray) -> Option<Self> {
+    /// `magnitude`: the largest absolute coordinate of the triangles tested.
+    fn new(ray: &Ray, magnitude: f32) -> Option<Self> {
         let d = ray.dir;
         if !ray.origin.is_finite() || !d.is_finite() || d == Vec3::ZERO || ray.t_min.is_nan() {
             return None;
@@ -529,6 +560,8 @@ impl Prepared {
         };
         let kx = (kz + 1) % 3;
         let ky = (kx + 1) % 3;
+        let slack =
+            BOX_SLACK_ULPS * f32::EPSILON * (ray.origin.abs().max_element() + magnitude);
         let axis = |k: usize, scale: f32| {
             let mut v = Vec3::ZERO;
             v[k] = 1.0;
@@ -540,6 +573,8 @@ impl Prepared {
         Some(Self {
             origin: ray.origin,
             inv_dir: d.recip(),
+            low_shift: -ray.origin - Vec3::splat(slack),
+            high_shift: -ray.origin + Vec3::splat(slack),
             shear_x: axis(kx, d[kx] / d[kz]),
             shear_y: axis(ky, d[ky] / d[kz]),
             shear_z,
@@ -553,8 +588,8 @@ impl Prepared {
     /// counts that slab as passed: conservative, never a missed hit.
     #[inline]
     fn hit_box(&self, node: &Node, t_min: f32, t_max: f32) -> Option<f32> {
-        let t0 = (node.min - self.origin) * self.inv_dir;
-        let t1 = (node.max - self.origin) * self.inv_dir;
+        let t0 = (node.min + self.low_shift) * self.inv_dir;
+        let t1 = (node.max + self.high_shift) * self.inv_dir;
         let near = t0.min(t1);
         let far = t0.max(t1);
         let t_near = t_min.max(near.x).max(near.y).max(near.z);

@@ -77,7 +77,10 @@ pub fn read_rgb_exr(path: &Path) -> Result<RgbRaster, ScanError> {
         _ => layer.grey(path)?.iter().map(|&v| [v; 3]).collect(),
     };
     let raster = raster(path, w, h, data)?;
-    check_finite(path, raster.data.iter().map(|p| p.iter().all(|v| v.is_finite())))?;
+    check_finite(
+        path,
+        raster.data.iter().map(|p| p.iter().all(|v| v.is_finite())),
+    )?;
     Ok(raster)
 }
 
@@ -152,12 +155,7 @@ pub fn write_rgb_png16(
     image: &RgbRaster,
     encoding: Encoding,
 ) -> Result<(), ScanError> {
-    check_writable(
-        path,
-        image,
-        Precision::Float,
-        image.data.iter().flatten(),
-    )?;
+    check_writable(path, image, Precision::Float, image.data.iter().flatten())?;
     let encode = |v: f32| {
         let v = v.clamp(0.0, 1.0);
         let v = match encoding {
@@ -172,7 +170,13 @@ pub fn write_rgb_png16(
         .flatten()
         .flat_map(|&v| encode(v).to_ne_bytes())
         .collect();
-    write_png(path, image.width, image.height, &bytes, ExtendedColorType::Rgb16)
+    write_png(
+        path,
+        image.width,
+        image.height,
+        &bytes,
+        ExtendedColorType::Rgb16,
+    )
 }
 
 /// Reads a mask: a pixel is set where any colour channel is nonzero (alpha
@@ -196,7 +200,13 @@ pub fn write_mask_png(path: &Path, mask: &MaskRaster) -> Result<(), ScanError> {
 pub fn write_preview_png(path: &Path, image: &RgbRaster) -> Result<(), ScanError> {
     check_size(path, image.width, image.height, image.data.len())?;
     let bytes: Vec<u8> = image.data.iter().flatten().map(|&v| preview(v)).collect();
-    write_png(path, image.width, image.height, &bytes, ExtendedColorType::Rgb8)
+    write_png(
+        path,
+        image.width,
+        image.height,
+        &bytes,
+        ExtendedColorType::Rgb8,
+    )
 }
 
 /// Writes an 8-bit grey preview of a scalar map in `[0, 1]` (roughness,
@@ -209,7 +219,13 @@ pub fn write_scalar_preview_png(path: &Path, image: &ScalarRaster) -> Result<(),
         .iter()
         .map(|&v| to_u8(if v.is_nan() { 0.0 } else { v }))
         .collect();
-    write_png(path, image.width, image.height, &bytes, ExtendedColorType::L8)
+    write_png(
+        path,
+        image.width,
+        image.height,
+        &bytes,
+        ExtendedColorType::L8,
+    )
 }
 
 /// The sRGB transfer curve, inverse direction (IEC 61966-2-1).
@@ -283,17 +299,66 @@ impl ExrLayer {
     }
 }
 
+/// The most bytes of decoded samples a file of `file_len` bytes may claim.
+/// Decoders allocate what the header claims before reading the data, so a
+/// corrupt header could ask for gigabytes; real files compress at most about
+/// 1000:1 (deflate's limit), so a claim beyond 2048 times the file size
+/// (with a floor for small files and a hard cap) is a corrupt header.
+fn decode_budget(file_len: u64) -> u64 {
+    const FLOOR: u64 = 64 << 20;
+    const CAP: u64 = 2 << 30;
+    file_len.saturating_mul(2048).clamp(FLOOR, CAP)
+}
+
+/// Decoded sizes from which EXR blocks are (de)compressed on several
+/// threads. The `exr` crate builds a fresh thread pool for every parallel
+/// read or write, which costs more than it saves on small images (and
+/// callers often already run one image per thread).
+const PARALLEL_FROM_BYTES: u128 = 16 << 20;
+
+/// Checks the header's claimed size against [`decode_budget`] and returns
+/// the decoded size in bytes.
+fn check_exr_budget(path: &Path, bytes: &[u8]) -> Result<u128, ScanError> {
+    let meta = exr::meta::MetaData::read_from_buffered(Cursor::new(bytes), true)
+        .map_err(|e| ScanError::format(path, format!("not a readable OpenEXR image: {e}")))?;
+    let budget = decode_budget(bytes.len() as u64);
+    let mut total = 0u128;
+    for h in &meta.headers {
+        let (w, ht, c) = (h.layer_size.0, h.layer_size.1, h.channels.list.len());
+        let claimed = (w as u128) * (ht as u128) * (c as u128) * 4;
+        if claimed > u128::from(budget) {
+            return Err(ScanError::format(
+                path,
+                format!(
+                    "header claims {w}x{ht} pixels of {c} channels, more than a file of {} \
+                     bytes can hold; the file is corrupt",
+                    bytes.len()
+                ),
+            ));
+        }
+        total += claimed;
+    }
+    Ok(total)
+}
+
 fn read_exr_layer(path: &Path) -> Result<ExrLayer, ScanError> {
     let bytes = std::fs::read(path).map_err(|e| ScanError::io(path, e))?;
+    let decoded_bytes = check_exr_budget(path, &bytes)?;
     // Pedantic: a relaxed read accepts truncated files and fills the missing
     // blocks with zeros, which would pass a broken photo off as a dark one.
-    let image = exr::prelude::read()
+    let reader = exr::prelude::read()
         .no_deep_data()
         .largest_resolution_level()
         .all_channels()
         .first_valid_layer()
         .all_attributes()
-        .pedantic()
+        .pedantic();
+    let reader = if decoded_bytes < PARALLEL_FROM_BYTES {
+        reader.non_parallel()
+    } else {
+        reader
+    };
+    let image = reader
         .from_buffered(Cursor::new(bytes))
         .map_err(|e| ScanError::format(path, format!("not a readable OpenEXR image: {e}")))?;
     let layer = image.layer_data;
@@ -344,9 +409,21 @@ fn write_exr(
         AnyChannels::sort(SmallVec::from_vec(channels)),
     );
     let image = Image::from_layer(layer);
+    let decoded_bytes = image
+        .layer_data
+        .channel_data
+        .list
+        .iter()
+        .map(|c| c.sample_data.len() as u128 * 4)
+        .sum::<u128>();
     write_atomic_with(path, |w| {
-        image
-            .write()
+        let writer = image.write();
+        let writer = if decoded_bytes < PARALLEL_FROM_BYTES {
+            writer.non_parallel()
+        } else {
+            writer
+        };
+        writer
             .to_buffered(w)
             .map_err(|e| ScanError::format(path, format!("could not encode OpenEXR: {e}")))
     })
@@ -354,10 +431,12 @@ fn write_exr(
 
 fn read_png(path: &Path) -> Result<DynamicImage, ScanError> {
     let file = std::fs::File::open(path).map_err(|e| ScanError::io(path, e))?;
-    let bad = |e: image::ImageError| ScanError::format(path, format!("not a readable PNG image: {e}"));
-    // Default limits cap memory, so a corrupt header cannot claim gigabytes.
-    let decoder = PngDecoder::with_limits(BufReader::new(file), image::Limits::default())
-        .map_err(bad)?;
+    let len = file.metadata().map_err(|e| ScanError::io(path, e))?.len();
+    let bad =
+        |e: image::ImageError| ScanError::format(path, format!("not a readable PNG image: {e}"));
+    let mut limits = image::Limits::default();
+    limits.max_alloc = Some(decode_budget(len));
+    let decoder = PngDecoder::with_limits(BufReader::new(file), limits).map_err(bad)?;
     DynamicImage::from_decoder(decoder).map_err(bad)
 }
 
@@ -375,15 +454,26 @@ fn write_png(
     })
 }
 
-fn raster<T>(path: &Path, width: usize, height: usize, data: Vec<T>) -> Result<Raster<T>, ScanError> {
+fn raster<T>(
+    path: &Path,
+    width: usize,
+    height: usize,
+    data: Vec<T>,
+) -> Result<Raster<T>, ScanError> {
     let (Ok(w), Ok(h)) = (u32::try_from(width), u32::try_from(height)) else {
-        return Err(ScanError::format(path, format!("image of {width}x{height} pixels is too large")));
+        return Err(ScanError::format(
+            path,
+            format!("image of {width}x{height} pixels is too large"),
+        ));
     };
     if w == 0 || h == 0 {
         return Err(ScanError::format(path, "image has no pixels"));
     }
     Raster::from_vec(w, h, data).ok_or_else(|| {
-        ScanError::format(path, format!("pixel data does not fill {width}x{height} pixels"))
+        ScanError::format(
+            path,
+            format!("pixel data does not fill {width}x{height} pixels"),
+        )
     })
 }
 

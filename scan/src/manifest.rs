@@ -138,10 +138,14 @@ pub struct Capture {
 pub enum CaptureRole {
     Ambient,
     /// One point light or the projector with a uniform pattern (or none).
-    Lit { light: String },
+    Lit {
+        light: String,
+    },
     Backlit,
     /// The projector showing a checkerboard.
-    Pattern { light: String },
+    Pattern {
+        light: String,
+    },
     /// A combination the estimator has no use for (two flashes at once, ...).
     Other,
 }

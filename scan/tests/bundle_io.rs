@@ -43,18 +43,27 @@ fn fill(w: &BundleWriter, m: &Manifest) {
             if c.file.extension().unwrap() == "png" {
                 write_rgb_png16(&w.path_for(&c.file).unwrap(), &img, Encoding::Srgb).unwrap();
             } else {
-                assert_eq!(w.write_photo(&p.name, &c.name, &img, Precision::Float).unwrap(), c.file);
+                assert_eq!(
+                    w.write_photo(&p.name, &c.name, &img, Precision::Float)
+                        .unwrap(),
+                    c.file
+                );
             }
         }
     }
     let mask: MaskRaster = Raster::from_fn(8, 6, |x, _| x > 2);
     w.write_mask("p0", &mask).unwrap();
-    let white = w.write_mask_at("views/p0/white.png", &Raster::filled(8, 6, true)).unwrap();
+    let white = w
+        .write_mask_at("views/p0/white.png", &Raster::filled(8, 6, true))
+        .unwrap();
     assert_eq!(Some(white), m.positions[0].white_reference_mask);
     let rough: ScalarRaster = Raster::from_fn(8, 6, |x, y| (x * y) as f32 / 35.0);
-    w.write_truth_scalar("p0", &TruthMap::Param(Param::Roughness), &rough).unwrap();
-    w.write_truth_rgb("p0", &TruthMap::Param(Param::Basecolor), &photo(7)).unwrap();
-    w.write_truth_rgb("p0", &TruthMap::Illum("flash0".into()), &photo(9)).unwrap();
+    w.write_truth_scalar("p0", &TruthMap::Param(Param::Roughness), &rough)
+        .unwrap();
+    w.write_truth_rgb("p0", &TruthMap::Param(Param::Basecolor), &photo(7))
+        .unwrap();
+    w.write_truth_rgb("p0", &TruthMap::Illum("flash0".into()), &photo(9))
+        .unwrap();
     w.write_truth_mask("p0", &mask).unwrap();
 }
 
@@ -81,8 +90,15 @@ fn entries(dir: &Path) -> Vec<String> {
 fn writer_publishes_a_bundle_that_opens_and_reads_back() {
     let (tmp, b) = published();
     assert_eq!(b.root, tmp.path().join("scan"));
-    assert_eq!(entries(tmp.path()), ["scan"], "temporary folders left behind");
-    assert_eq!(entries(&b.root), ["geometry.ply", "scan.toml", "truth", "views"]);
+    assert_eq!(
+        entries(tmp.path()),
+        ["scan"],
+        "temporary folders left behind"
+    );
+    assert_eq!(
+        entries(&b.root),
+        ["geometry.ply", "scan.toml", "truth", "views"]
+    );
     assert!(b.warnings.is_empty(), "{:?}", b.warnings);
 
     let opened = Bundle::open(&b.root).unwrap();
@@ -90,25 +106,50 @@ fn writer_publishes_a_bundle_that_opens_and_reads_back() {
     assert_eq!(opened.read_photo("p0", "flash0").unwrap(), photo(1));
     assert_eq!(opened.read_photo("p1", "flash0").unwrap(), photo(11));
     let phone = opened.read_photo("p0", "phone").unwrap();
-    for (a, b) in photo(2).data.iter().flatten().zip(phone.data.iter().flatten()) {
+    for (a, b) in photo(2)
+        .data
+        .iter()
+        .flatten()
+        .zip(phone.data.iter().flatten())
+    {
         // Clipped to [0, 1] by the PNG, then sRGB round trip.
         assert!((a.min(1.0) - b).abs() < 2e-5, "{a} vs {b}");
     }
     let mask = opened.read_mask("p0").unwrap().unwrap();
     assert!(!mask.get(2, 0) && *mask.get(3, 5));
     assert_eq!(opened.read_mask("p1").unwrap(), None);
-    assert!(opened.read_white_reference_mask("p0").unwrap().unwrap().data.iter().all(|&m| m));
+    assert!(opened
+        .read_white_reference_mask("p0")
+        .unwrap()
+        .unwrap()
+        .data
+        .iter()
+        .all(|&m| m));
     assert_eq!(opened.read_white_reference_mask("p1").unwrap(), None);
 
-    let rough = opened.read_truth("p0", &TruthMap::Param(Param::Roughness)).unwrap().unwrap();
+    let rough = opened
+        .read_truth("p0", &TruthMap::Param(Param::Roughness))
+        .unwrap()
+        .unwrap();
     assert_eq!(rough.into_scalar().unwrap().data[8 * 5 + 7], 1.0);
-    let base = opened.read_truth("p0", &TruthMap::Param(Param::Basecolor)).unwrap().unwrap();
+    let base = opened
+        .read_truth("p0", &TruthMap::Param(Param::Basecolor))
+        .unwrap()
+        .unwrap();
     assert_eq!(base, TruthImage::Rgb(photo(7)));
-    let illum = opened.read_truth("p0", &TruthMap::Illum("flash0".into())).unwrap().unwrap();
+    let illum = opened
+        .read_truth("p0", &TruthMap::Illum("flash0".into()))
+        .unwrap()
+        .unwrap();
     assert_eq!(illum.into_rgb().unwrap(), photo(9));
     let valid = opened.read_truth("p0", &TruthMap::Mask).unwrap().unwrap();
     assert_eq!(valid.into_mask().unwrap(), mask);
-    assert_eq!(opened.read_truth("p0", &TruthMap::Param(Param::Metallic)).unwrap(), None);
+    assert_eq!(
+        opened
+            .read_truth("p0", &TruthMap::Param(Param::Metallic))
+            .unwrap(),
+        None
+    );
     assert_eq!(opened.read_truth("p1", &TruthMap::Mask).unwrap(), None);
     assert!(fs::metadata(b.root.join("truth/p0/illum_flash0.exr")).is_ok());
 
@@ -125,21 +166,34 @@ fn finish_refuses_a_bundle_with_missing_files_and_publishes_nothing() {
     let target = tmp.path().join("scan");
     let w = BundleWriter::create(&target).unwrap();
     w.write_mesh(&triangle()).unwrap();
-    w.write_photo("p0", "ambient", &photo(0), Precision::Half).unwrap();
+    w.write_photo("p0", "ambient", &photo(0), Precision::Half)
+        .unwrap();
     let err = w.finish(&manifest()).unwrap_err();
     assert!(matches!(err, ScanError::Missing { .. }), "{err}");
-    assert!(err.to_string().contains("position \"p0\" capture \"flash0\""), "{err}");
-    assert!(entries(tmp.path()).is_empty(), "left behind: {:?}", entries(tmp.path()));
+    assert!(
+        err.to_string()
+            .contains("position \"p0\" capture \"flash0\""),
+        "{err}"
+    );
+    assert!(
+        entries(tmp.path()).is_empty(),
+        "left behind: {:?}",
+        entries(tmp.path())
+    );
 }
 
 #[test]
 fn dropping_an_unfinished_writer_removes_its_temporary_folder() {
     let tmp = tempfile::tempdir().unwrap();
     let w = BundleWriter::create(tmp.path().join("scan")).unwrap();
-    w.write_photo("p0", "ambient", &photo(0), Precision::Half).unwrap();
+    w.write_photo("p0", "ambient", &photo(0), Precision::Half)
+        .unwrap();
     let temp = w.dir().to_path_buf();
     let name = temp.file_name().unwrap().to_string_lossy().into_owned();
-    assert!(name.starts_with(".scan") && name.contains(".tmp-"), "{name}");
+    assert!(
+        name.starts_with(".scan") && name.contains(".tmp-"),
+        "{name}"
+    );
     assert_eq!(temp.parent(), Some(tmp.path()));
     drop(w);
     assert!(entries(tmp.path()).is_empty());
@@ -151,7 +205,13 @@ fn writer_refuses_an_existing_target_at_create_and_at_publish() {
     let target = tmp.path().join("scan");
     fs::create_dir(&target).unwrap();
     let err = BundleWriter::create(&target).unwrap_err();
-    assert_eq!(err.to_string(), format!("{} already exists; refusing to replace it", target.display()));
+    assert_eq!(
+        err.to_string(),
+        format!(
+            "{} already exists; refusing to replace it",
+            target.display()
+        )
+    );
 
     let other = tmp.path().join("scan2");
     let m = manifest();
@@ -174,7 +234,10 @@ fn writer_paths_must_stay_inside_the_bundle() {
         assert!(w.write_file(bad, b"x").is_err());
     }
     w.write_file("notes/readme.txt", b"hello").unwrap();
-    assert_eq!(fs::read(w.dir().join("notes/readme.txt")).unwrap(), b"hello");
+    assert_eq!(
+        fs::read(w.dir().join("notes/readme.txt")).unwrap(),
+        b"hello"
+    );
 }
 
 #[test]
@@ -182,9 +245,17 @@ fn truth_maps_must_be_written_with_their_own_kind() {
     let tmp = tempfile::tempdir().unwrap();
     let w = BundleWriter::create(tmp.path().join("scan")).unwrap();
     let scalar: ScalarRaster = Raster::filled(8, 6, 0.5);
-    let err = w.write_truth_scalar("p0", &TruthMap::Param(Param::Basecolor), &scalar).unwrap_err();
-    assert!(err.to_string().contains("truth map basecolor is stored as Rgb, not Scalar"), "{err}");
-    assert!(w.write_truth_rgb("p0", &TruthMap::Param(Param::Metallic), &photo(0)).is_err());
+    let err = w
+        .write_truth_scalar("p0", &TruthMap::Param(Param::Basecolor), &scalar)
+        .unwrap_err();
+    assert!(
+        err.to_string()
+            .contains("truth map basecolor is stored as Rgb, not Scalar"),
+        "{err}"
+    );
+    assert!(w
+        .write_truth_rgb("p0", &TruthMap::Param(Param::Metallic), &photo(0))
+        .is_err());
 }
 
 fn remove(root: &Path, rel: &str) -> PathBuf {
@@ -211,12 +282,18 @@ fn open_names_each_missing_file_and_what_needs_it() {
     let white = remove(root, "views/p0/white.png");
     let err = Bundle::open(root).unwrap_err().to_string();
     assert!(err.starts_with(&white.display().to_string()), "{err}");
-    assert!(err.contains("the white reference mask of position \"p0\""), "{err}");
+    assert!(
+        err.contains("the white reference mask of position \"p0\""),
+        "{err}"
+    );
     fs::write(&white, b"").unwrap();
 
     remove(root, "geometry.ply");
     let err = Bundle::open(root).unwrap_err().to_string();
-    assert!(err.contains("geometry.ply: missing (the object mesh: geometry.ply or geometry.obj)"), "{err}");
+    assert!(
+        err.contains("geometry.ply: missing (the object mesh: geometry.ply or geometry.obj)"),
+        "{err}"
+    );
 
     remove(root, "scan.toml");
     let err = Bundle::open(root).unwrap_err().to_string();
@@ -230,7 +307,9 @@ fn an_obj_mesh_is_used_when_there_is_no_ply_and_both_warn() {
     fs::write(b.root.join("geometry.obj"), obj).unwrap();
     let both = Bundle::open(&b.root).unwrap();
     assert_eq!(both.warnings.len(), 1);
-    assert!(both.warnings[0].contains("both geometry.ply and geometry.obj exist; using geometry.ply"));
+    assert!(
+        both.warnings[0].contains("both geometry.ply and geometry.obj exist; using geometry.ply")
+    );
     assert_eq!(both.read_mesh().unwrap().triangle_count(), 1);
     fs::remove_file(b.root.join("geometry.ply")).unwrap();
     let obj_only = Bundle::open(&b.root).unwrap();
@@ -262,7 +341,10 @@ fn unknown_positions_and_captures_are_errors_listing_what_exists() {
     let err = b.read_photo("p9", "ambient").unwrap_err().to_string();
     assert!(err.ends_with("no position `p9` (it has p0, p1)"), "{err}");
     let err = b.read_photo("p1", "flash1").unwrap_err().to_string();
-    assert!(err.ends_with("position `p1` has no capture `flash1` (it has ambient, flash0)"), "{err}");
+    assert!(
+        err.ends_with("position `p1` has no capture `flash1` (it has ambient, flash0)"),
+        "{err}"
+    );
     assert!(b.read_truth("p0", &TruthMap::Illum("nope".into())).is_err());
     assert!(b.read_mask("p7").is_err());
 }
@@ -271,7 +353,11 @@ fn unknown_positions_and_captures_are_errors_listing_what_exists() {
 fn unknown_manifest_keys_reach_the_bundle_warnings() {
     let (_tmp, b) = published();
     let text = fs::read_to_string(b.manifest_path()).unwrap();
-    fs::write(b.manifest_path(), text.replacen("units = \"m\"", "units = \"m\"\nrig = 2", 1)).unwrap();
+    fs::write(
+        b.manifest_path(),
+        text.replacen("units = \"m\"", "units = \"m\"\nrig = 2", 1),
+    )
+    .unwrap();
     let opened = Bundle::open(&b.root).unwrap();
     assert_eq!(opened.warnings.len(), 1);
     assert!(opened.warnings[0].contains("key `rig` is not part of matscan-scan/1; ignored"));

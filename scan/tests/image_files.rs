@@ -14,7 +14,11 @@ use std::path::Path;
 
 fn gradient(w: u32, h: u32) -> RgbRaster {
     Raster::from_fn(w, h, |x, y| {
-        [x as f32 / w as f32, y as f32 / h as f32, 0.25 + 0.5 * ((x + y) % 2) as f32]
+        [
+            x as f32 / w as f32,
+            y as f32 / h as f32,
+            0.25 + 0.5 * ((x + y) % 2) as f32,
+        ]
     })
 }
 
@@ -109,7 +113,17 @@ fn exr_reading_accepts_rgba_and_luminance_and_rejects_other_channel_sets() {
     let rgba = dir.path().join("rgba.exr");
     let (w, h) = (3, 2);
     let ramp = |k: f32| (0..w * h).map(|i| i as f32 * k).collect::<Vec<f32>>();
-    write_exr_channels(&rgba, w, h, vec![("R", ramp(1.0)), ("G", ramp(2.0)), ("B", ramp(3.0)), ("A", vec![0.0; 6])]);
+    write_exr_channels(
+        &rgba,
+        w,
+        h,
+        vec![
+            ("R", ramp(1.0)),
+            ("G", ramp(2.0)),
+            ("B", ramp(3.0)),
+            ("A", vec![0.0; 6]),
+        ],
+    );
     let img = read_rgb_exr(&rgba).unwrap();
     assert_eq!(img.data[4], [4.0, 8.0, 12.0]);
 
@@ -121,7 +135,11 @@ fn exr_reading_accepts_rgba_and_luminance_and_rejects_other_channel_sets() {
     let uv = dir.path().join("uv.exr");
     write_exr_channels(&uv, w, h, vec![("U", ramp(1.0)), ("V", ramp(1.0))]);
     let msg = read_rgb_exr(&uv).unwrap_err().to_string();
-    assert!(msg.contains("uv.exr") && msg.contains("expected channels R G B, Y or a single channel, found U V"), "{msg}");
+    assert!(
+        msg.contains("uv.exr")
+            && msg.contains("expected channels R G B, Y or a single channel, found U V"),
+        "{msg}"
+    );
 }
 
 #[test]
@@ -131,16 +149,33 @@ fn non_finite_pixels_are_rejected_on_read_and_write() {
     let mut values = vec![0.5f32; 6];
     values[2] = f32::NAN;
     values[4] = f32::INFINITY;
-    write_exr_channels(&path, 3, 2, vec![("R", values.clone()), ("G", vec![0.0; 6]), ("B", vec![0.0; 6])]);
+    write_exr_channels(
+        &path,
+        3,
+        2,
+        vec![
+            ("R", values.clone()),
+            ("G", vec![0.0; 6]),
+            ("B", vec![0.0; 6]),
+        ],
+    );
     let msg = read_rgb_exr(&path).unwrap_err().to_string();
-    assert!(msg.contains("nan.exr") && msg.contains("2 pixels hold NaN or infinite values"), "{msg}");
+    assert!(
+        msg.contains("nan.exr") && msg.contains("2 pixels hold NaN or infinite values"),
+        "{msg}"
+    );
     assert!(read_scalar_exr(&path).is_err());
 
     let mut img = gradient(3, 2);
     img.data[1][2] = f32::NAN;
     let out = dir.path().join("out.exr");
-    let msg = write_rgb_exr(&out, &img, Precision::Float).unwrap_err().to_string();
-    assert!(msg.contains("refusing to write 1 NaN or infinite values"), "{msg}");
+    let msg = write_rgb_exr(&out, &img, Precision::Float)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        msg.contains("refusing to write 1 NaN or infinite values"),
+        "{msg}"
+    );
     assert!(!out.exists());
 }
 
@@ -151,8 +186,14 @@ fn half_writes_refuse_values_beyond_the_half_range() {
     let mut img = gradient(3, 2);
     img.data[0][0] = 70000.0;
     img.data[1][1] = -1e9;
-    let msg = write_rgb_exr(&path, &img, Precision::Half).unwrap_err().to_string();
-    assert!(msg.contains("2 values exceed the half-float range") && msg.contains("write Float precision"), "{msg}");
+    let msg = write_rgb_exr(&path, &img, Precision::Half)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        msg.contains("2 values exceed the half-float range")
+            && msg.contains("write Float precision"),
+        "{msg}"
+    );
     assert!(!path.exists());
     write_rgb_exr(&path, &img, Precision::Float).unwrap();
     assert_eq!(read_rgb_exr(&path).unwrap().data[0][0], 70000.0);
@@ -166,8 +207,13 @@ fn rasters_whose_data_does_not_match_their_size_are_refused() {
         height: 4,
         data: vec![[0.0f32; 3]; 3],
     };
-    let msg = write_rgb_exr(&dir.path().join("a.exr"), &bad, Precision::Float).unwrap_err().to_string();
-    assert!(msg.contains("cannot write 3 pixels as a 4x4 image"), "{msg}");
+    let msg = write_rgb_exr(&dir.path().join("a.exr"), &bad, Precision::Float)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        msg.contains("cannot write 3 pixels as a 4x4 image"),
+        "{msg}"
+    );
     assert!(write_preview_png(&dir.path().join("a.png"), &bad).is_err());
     let empty: MaskRaster = Raster::filled(0, 3, false);
     assert!(write_mask_png(&dir.path().join("m.png"), &empty).is_err());
@@ -204,7 +250,11 @@ fn png16_srgb_is_decoded_to_linear() {
     }
     // The stored values are the sRGB-encoded ones: linear 0.25 is ~0.537.
     let raw = read_rgb_png(&path, Encoding::Linear).unwrap();
-    assert!((raw.data[0][2] - 0.537_098_6).abs() < 2e-5, "{}", raw.data[0][2]);
+    assert!(
+        (raw.data[0][2] - 0.537_098_6).abs() < 2e-5,
+        "{}",
+        raw.data[0][2]
+    );
     // Through read_rgb's dispatch as well.
     assert_eq!(read_rgb(&path, Some(Encoding::Srgb)).unwrap(), back);
 }
@@ -234,9 +284,13 @@ fn read_rgb_requires_an_encoding_for_png_and_refuses_srgb_exr() {
     write_rgb_exr(&exr, &img, Precision::Float).unwrap();
     let msg = read_rgb(&png, None).unwrap_err().to_string();
     assert!(msg.contains("a PNG photo needs its encoding"), "{msg}");
-    let msg = read_rgb(&exr, Some(Encoding::Srgb)).unwrap_err().to_string();
+    let msg = read_rgb(&exr, Some(Encoding::Srgb))
+        .unwrap_err()
+        .to_string();
     assert!(msg.contains("EXR photos are linear"), "{msg}");
-    let msg = read_rgb(&dir.path().join("a.jpg"), None).unwrap_err().to_string();
+    let msg = read_rgb(&dir.path().join("a.jpg"), None)
+        .unwrap_err()
+        .to_string();
     assert!(msg.contains("expected a .exr or .png image"), "{msg}");
 }
 
@@ -264,7 +318,12 @@ fn masks_round_trip_and_any_nonzero_colour_channel_counts() {
 fn previews_are_8_bit_srgb_and_scalar_previews_are_plain_grey() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("p.png");
-    let img = Raster::from_vec(4, 1, vec![[0.5, 0.0, 1.0], [2.0, -1.0, f32::NAN], [0.0; 3], [1.0; 3]]).unwrap();
+    let img = Raster::from_vec(
+        4,
+        1,
+        vec![[0.5, 0.0, 1.0], [2.0, -1.0, f32::NAN], [0.0; 3], [1.0; 3]],
+    )
+    .unwrap();
     write_preview_png(&path, &img).unwrap();
     let back = image::open(&path).unwrap().into_rgb8();
     assert_eq!(back.get_pixel(0, 0).0, [188, 0, 255]);
@@ -295,9 +354,15 @@ fn missing_and_garbage_files_are_errors_naming_the_file() {
     let garbage = dir.path().join("garbage.png");
     std::fs::write(&garbage, b"this is not a png").unwrap();
     let msg = read_mask_png(&garbage).unwrap_err().to_string();
-    assert!(msg.contains("garbage.png: not a readable PNG image"), "{msg}");
+    assert!(
+        msg.contains("garbage.png: not a readable PNG image"),
+        "{msg}"
+    );
     let garbage = dir.path().join("garbage.exr");
     std::fs::write(&garbage, b"this is not an exr").unwrap();
     let msg = read_rgb_exr(&garbage).unwrap_err().to_string();
-    assert!(msg.contains("garbage.exr: not a readable OpenEXR image"), "{msg}");
+    assert!(
+        msg.contains("garbage.exr: not a readable OpenEXR image"),
+        "{msg}"
+    );
 }

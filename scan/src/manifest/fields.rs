@@ -95,7 +95,8 @@ impl<'a> Fields<'a> {
     /// A finite number; TOML integers count as numbers.
     pub fn number(&mut self, name: &'a str) -> Result<f64, ScanError> {
         let v = self.required(name, "a number")?;
-        number(v).map_err(|found| self.error(name, format!("expected a finite number, found {found}")))
+        number(v)
+            .map_err(|found| self.error(name, format!("expected a finite number, found {found}")))
     }
 
     pub fn opt_number(&mut self, name: &'a str) -> Result<Option<f64>, ScanError> {
@@ -113,10 +114,7 @@ impl<'a> Fields<'a> {
         if x > 0.0 {
             Ok(x)
         } else {
-            Err(self.error(
-                name,
-                format!("expected a positive number{unit}, found {x}"),
-            ))
+            Err(self.error(name, format!("expected a positive number{unit}, found {x}")))
         }
     }
 
@@ -141,7 +139,10 @@ impl<'a> Fields<'a> {
             Value::Integer(i) if *i > 0 && *i <= i64::from(u32::MAX) => Ok(*i as u32),
             other => Err(self.error(
                 name,
-                format!("expected a positive integer (pixels), found {}", describe(other)),
+                format!(
+                    "expected a positive integer (pixels), found {}",
+                    describe(other)
+                ),
             )),
         }
     }
@@ -161,16 +162,10 @@ impl<'a> Fields<'a> {
 
     fn as_numbers<const N: usize>(&self, name: &str, v: &Value) -> Result<[f64; N], ScanError> {
         let Value::Array(items) = v else {
-            return Err(self.error(
-                name,
-                format!("expected {N} numbers, found {}", describe(v)),
-            ));
+            return Err(self.error(name, format!("expected {N} numbers, found {}", describe(v))));
         };
         if items.len() != N {
-            return Err(self.error(
-                name,
-                format!("expected {N} numbers, found {}", items.len()),
-            ));
+            return Err(self.error(name, format!("expected {N} numbers, found {}", items.len())));
         }
         let mut out = [0.0; N];
         for (i, (slot, item)) in out.iter_mut().zip(items).enumerate() {
@@ -188,10 +183,7 @@ impl<'a> Fields<'a> {
     pub fn strings(&mut self, name: &'a str, expected: &str) -> Result<Vec<String>, ScanError> {
         let v = self.required(name, expected)?;
         let Value::Array(items) = v else {
-            return Err(self.error(
-                name,
-                format!("expected {expected}, found {}", describe(v)),
-            ));
+            return Err(self.error(name, format!("expected {expected}, found {}", describe(v))));
         };
         items
             .iter()
@@ -211,10 +203,9 @@ impl<'a> Fields<'a> {
         match self.get(name) {
             None => Ok(None),
             Some(Value::Table(t)) => Ok(Some(Fields::new(self.path, t, self.key_of(name)))),
-            Some(other) => Err(self.error(
-                name,
-                format!("expected a table, found {}", describe(other)),
-            )),
+            Some(other) => {
+                Err(self.error(name, format!("expected a table, found {}", describe(other))))
+            }
         }
     }
 
@@ -233,7 +224,10 @@ impl<'a> Fields<'a> {
             Some(other) => {
                 return Err(self.error(
                     name,
-                    format!("expected an array of tables ([[{name}]]), found {}", describe(other)),
+                    format!(
+                        "expected an array of tables ([[{name}]]), found {}",
+                        describe(other)
+                    ),
                 ))
             }
         };
@@ -255,7 +249,10 @@ impl<'a> Fields<'a> {
                 }
                 other => Err(self.error(
                     name,
-                    format!("expected an array of tables ([[{name}]]), item {i} is {}", describe(other)),
+                    format!(
+                        "expected an array of tables ([[{name}]]), item {i} is {}",
+                        describe(other)
+                    ),
                 )),
             })
             .collect()

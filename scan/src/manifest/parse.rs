@@ -21,7 +21,10 @@ pub(super) fn parse(text: &str, path: &Path) -> Result<(Manifest, Vec<String>), 
 
     let units = top.opt_string("units")?.unwrap_or_else(|| "m".to_string());
     if units.trim().is_empty() {
-        return Err(top.error("units", "expected a length unit such as \"m\", found an empty string"));
+        return Err(top.error(
+            "units",
+            "expected a length unit such as \"m\", found an empty string",
+        ));
     }
     let name = top.opt_string("name")?.unwrap_or_default();
     let created = match top.get("created") {
@@ -32,7 +35,10 @@ pub(super) fn parse(text: &str, path: &Path) -> Result<(Manifest, Vec<String>), 
         Some(other) => {
             return Err(top.error(
                 "created",
-                format!("expected an RFC 3339 timestamp string, found {}", describe(other)),
+                format!(
+                    "expected an RFC 3339 timestamp string, found {}",
+                    describe(other)
+                ),
             ))
         }
     };
@@ -51,7 +57,10 @@ pub(super) fn parse(text: &str, path: &Path) -> Result<(Manifest, Vec<String>), 
         if positions.iter().any(|p| p.name == position.name) {
             return Err(fields.error(
                 "name",
-                format!("expected a unique position name; {:?} is used twice", position.name),
+                format!(
+                    "expected a unique position name; {:?} is used twice",
+                    position.name
+                ),
             ));
         }
         fields.finish(&mut warnings);
@@ -160,7 +169,10 @@ fn position(f: &mut Fields<'_>, warnings: &mut Vec<String>) -> Result<Position, 
         if lights.iter().any(|o| o.name == l.name) {
             return Err(lf.error(
                 "name",
-                format!("expected a unique light name in position {name:?}; {:?} is used twice", l.name),
+                format!(
+                    "expected a unique light name in position {name:?}; {:?} is used twice",
+                    l.name
+                ),
             ));
         }
         lf.finish(warnings);
@@ -173,7 +185,10 @@ fn position(f: &mut Fields<'_>, warnings: &mut Vec<String>) -> Result<Position, 
         if captures.iter().any(|o| o.name == c.name) {
             return Err(cf.error(
                 "name",
-                format!("expected a unique capture name in position {name:?}; {:?} is used twice", c.name),
+                format!(
+                    "expected a unique capture name in position {name:?}; {:?} is used twice",
+                    c.name
+                ),
             ));
         }
         cf.finish(warnings);
@@ -225,7 +240,10 @@ fn light(f: &mut Fields<'_>) -> Result<Light, ScanError> {
     };
     let intensity = match f.opt_number("intensity")? {
         Some(x) if x <= 0.0 => {
-            return Err(f.error("intensity", format!("expected a positive number, found {x}")))
+            return Err(f.error(
+                "intensity",
+                format!("expected a positive number, found {x}"),
+            ))
         }
         other => other,
     };
@@ -265,7 +283,10 @@ fn capture(
     let file = relative_file(f, "file", &file, &["exr", "png"])?;
     let exposure_s = f.positive("exposure_s", " (seconds)")?;
 
-    let used = f.strings("lights", "a list of light names (use [] for the ambient capture)")?;
+    let used = f.strings(
+        "lights",
+        "a list of light names (use [] for the ambient capture)",
+    )?;
     let mut seen = BTreeSet::new();
     for l in &used {
         if !lights.iter().any(|k| &k.name == l) {
@@ -364,7 +385,9 @@ fn check_folder_name(f: &Fields<'_>, key: &str, name: &str, what: &str) -> Resul
     let bad = name.is_empty()
         || name == "."
         || name == ".."
-        || name.chars().any(|c| c == '/' || c == '\\' || c.is_control());
+        || name
+            .chars()
+            .any(|c| c == '/' || c == '\\' || c.is_control());
     if bad {
         return Err(f.error(
             key,
@@ -393,7 +416,9 @@ fn relative_file(
     let fail = |why: &str| {
         f.error(
             key,
-            format!("expected a {wanted} file path relative to the bundle folder{why}, found {value:?}"),
+            format!(
+                "expected a {wanted} file path relative to the bundle folder{why}, found {value:?}"
+            ),
         )
     };
     if value.contains('\\') {

@@ -123,12 +123,7 @@ fn matrix(m: &DMat4) -> String {
     let rows = mat4_to_row_major(m);
     let rows: Vec<String> = rows
         .chunks(4)
-        .map(|r| {
-            r.iter()
-                .map(|&x| number(x))
-                .collect::<Vec<_>>()
-                .join(", ")
-        })
+        .map(|r| r.iter().map(|&x| number(x)).collect::<Vec<_>>().join(", "))
         .collect();
     format!("[\n  {},\n]", rows.join(",\n  "))
 }
@@ -176,7 +171,17 @@ mod tests {
     #[test]
     fn numbers_parse_back_exactly() {
         for x in [
-            0.0, -0.0, 1.0, 0.1, 1e-300, 1e300, 1e20, 123456789.0, -2.5e-7, 355.6, 5e-324,
+            0.0,
+            -0.0,
+            1.0,
+            0.1,
+            1e-300,
+            1e300,
+            1e20,
+            123456789.0,
+            -2.5e-7,
+            355.6,
+            5e-324,
         ] {
             let text = format!("x = {}", number(x));
             let t: toml::Table = text.parse().unwrap();

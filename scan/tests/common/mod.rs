@@ -122,7 +122,11 @@ camera_to_world = [0,0,1,-1.5, 0,1,0,0, -1,0,0,0, 0,0,0,1]
 /// `from` is not there exactly once, so a fixture edit cannot silently make
 /// a test vacuous).
 pub fn edit(from: &str, to: &str) -> String {
-    assert_eq!(VALID.matches(from).count(), 1, "fixture must contain {from:?} once");
+    assert_eq!(
+        VALID.matches(from).count(),
+        1,
+        "fixture must contain {from:?} once"
+    );
     VALID.replacen(from, to, 1)
 }
 
@@ -142,6 +146,9 @@ pub fn error_of(text: &str) -> String {
 pub fn assert_rejected(text: &str, key: &str, expectation: &str) {
     let msg = error_of(text);
     assert!(msg.starts_with("scan.toml: "), "no file in: {msg}");
-    assert!(msg.contains(&format!("key `{key}`")), "no key `{key}` in: {msg}");
+    assert!(
+        msg.contains(&format!("key `{key}`")),
+        "no key `{key}` in: {msg}"
+    );
     assert!(msg.contains(expectation), "no {expectation:?} in: {msg}");
 }

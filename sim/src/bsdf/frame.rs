@@ -50,7 +50,7 @@ impl SurfaceNormals {
     /// the surface plane or is not finite.
     pub fn frame(&self, wo: Vec3) -> Option<ShadingFrame> {
         let cos_g = self.ng.dot(wo);
-        if !(cos_g.abs() > PLANE_COS) {
+        if cos_g.is_nan() || cos_g.abs() <= PLANE_COS {
             return None;
         }
         let backfacing = cos_g < 0.0;
@@ -69,7 +69,7 @@ impl SurfaceNormals {
             backfacing,
         };
         let wo_local = frame.to_local(wo);
-        if !(wo_local.z > 0.0) {
+        if wo_local.z.is_nan() || wo_local.z <= 0.0 {
             return None;
         }
         Some(frame)
@@ -88,11 +88,11 @@ pub(crate) struct ShadingFrame {
 }
 
 impl ShadingFrame {
-    pub fn to_local(&self, v: Vec3) -> Vec3 {
+    pub fn to_local(self, v: Vec3) -> Vec3 {
         Vec3::new(v.dot(self.t), v.dot(self.b), v.dot(self.n))
     }
 
-    pub fn to_world(&self, v: Vec3) -> Vec3 {
+    pub fn to_world(self, v: Vec3) -> Vec3 {
         self.t * v.x + self.b * v.y + self.n * v.z
     }
 
@@ -129,7 +129,7 @@ fn ensure_valid_reflection(ng: Vec3, i: Vec3, n: Vec3) -> Vec3 {
     let ix2 = ix * ix;
     let iz2 = iz * iz;
     let a = ix2 + iz2;
-    if !(a > 0.0) {
+    if a.is_nan() || a <= 0.0 {
         return ng;
     }
     let b = (ix2 * (a - threshold * threshold)).max(0.0).sqrt();

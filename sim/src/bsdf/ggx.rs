@@ -130,7 +130,7 @@ mod tests {
     fn projected_distribution_integrates_to_one() {
         // ∫ D(h) h.z dω = 1 by stratified quadrature in (cos θ², φ).
         for alpha in [0.05_f32, 0.2, 0.5, 1.0] {
-            let n = 2000;
+            let n = 200_000;
             let mut sum = 0.0_f64;
             for i in 0..n {
                 // Substitute t = cos θ: dω = dt dφ; D is φ-independent.

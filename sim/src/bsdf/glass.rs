@@ -5,11 +5,19 @@
 //! the relative index across the surface as seen from `wo` (1.45 entering,
 //! 1/1.45 leaving).
 //!
+//! Energy: Cycles 2.9x's multiscatter GGX glass loses no energy for white
+//! glass; single scattering loses up to ~65% at roughness 1. The lobe is
+//! therefore divided by its white directional albedo E(μo) (tabulated in
+//! [`super::energy`], as Cycles 4.x does for its glass), which restores
+//! albedo 1 for white glass at every roughness and angle, with the single-
+//! scattering shape.
+//!
 //! Like Cycles, the transmitted radiance is not scaled by 1/eta² (the
 //! eta² of the refraction Jacobian stays in f), so looking through a glass
 //! slab keeps a light's brightness and a sampled refraction has weight
 //! G1(wi) times the tint.
 
+use super::energy::tables;
 use super::fresnel::fresnel_dielectric_cos;
 use super::ggx::{
     ggx_d, ggx_g1, reflect, refract, refraction_half_vector, refraction_jacobian, sample_vndf,
@@ -19,6 +27,7 @@ use glam::Vec3;
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct Glass {
+    roughness: f32,
     alpha: f32,
     delta: bool,
     tint: Vec3,
@@ -34,8 +43,20 @@ pub(crate) struct DeltaGlassSample {
 }
 
 impl Glass {
-    pub fn new(alpha: f32, delta: bool, tint: Vec3) -> Glass {
-        Glass { alpha, delta, tint }
+    pub fn new(roughness: f32, alpha: f32, delta: bool, tint: Vec3) -> Glass {
+        Glass {
+            roughness,
+            alpha,
+            delta,
+            tint,
+        }
+    }
+
+    /// 1 / E(μo) of white glass: the renormalization for multiple scattering.
+    /// The floor bounds it where E is smallest (rough, grazing).
+    fn energy_scale(&self, wo: Vec3, eta: f32) -> f32 {
+        let e = tables().glass_albedo(wo.z, self.roughness, eta > 1.0);
+        1.0 / e.max(0.1)
     }
 
     pub fn is_delta(&self) -> bool {
@@ -62,8 +83,9 @@ impl Glass {
         let d = ggx_d(h, self.alpha);
         let g1o = ggx_g1(wo, self.alpha);
         let common = f * d / (4.0 * wo.z);
+        let scale = self.energy_scale(wo, eta);
         (
-            Vec3::splat(common * g1o * ggx_g1(wi, self.alpha)),
+            Vec3::splat(common * g1o * ggx_g1(wi, self.alpha) * scale),
             common * g1o,
         )
     }
@@ -79,8 +101,9 @@ impl Glass {
         let f = fresnel_dielectric_cos(wo.dot(h), eta);
         let pdf = (1.0 - f) * vndf_pdf(wo, h, self.alpha) * refraction_jacobian(wo, wi, h, eta);
         // f cos = (1 - F) D G1o G1i eta² |wi·h| |wo·h| / (wo.z (wo·h + eta wi·h)²)
-        //       = pdf * G1i, by the visible-normal density.
-        (self.tint * (pdf * ggx_g1(wi, self.alpha)), pdf)
+        //       = pdf * G1i, by the visible-normal density; then renormalized.
+        let scale = self.energy_scale(wo, eta);
+        (self.tint * (pdf * ggx_g1(wi, self.alpha) * scale), pdf)
     }
 
     /// Non-delta sample: reflect with the microfacet's Fresnel probability,
@@ -88,12 +111,15 @@ impl Glass {
     pub fn sample(&self, wo: Vec3, eta: f32, u_choice: f32, u1: f32, u2: f32) -> Option<Vec3> {
         let h = sample_vndf(wo, self.alpha, u1, u2);
         let f = fresnel_dielectric_cos(wo.dot(h), eta);
-        let wi = if u_choice < f {
-            reflect(wo, h).normalize_or_zero()
+        // A branch landing on the other branch's side is rejected, so that
+        // the density on each side is exactly that branch's pdf.
+        if u_choice < f {
+            let wi = reflect(wo, h).normalize_or_zero();
+            (wi.z > 0.0).then_some(wi)
         } else {
-            refract(wo, h, eta)?
-        };
-        (wi != Vec3::ZERO).then_some(wi)
+            let wi = refract(wo, h, eta)?;
+            (wi.z < 0.0).then_some(wi)
+        }
     }
 
     /// Delta sample of the perfectly smooth interface.

@@ -32,7 +32,9 @@
 //! The lobes are added, not layered: that is Cycles 2.9x's principled BSDF,
 //! and it is not energy conserving for dielectrics. Burley diffuse alone
 //! reflects 0.976..1.036 at normal incidence and up to ~1.5 at grazing view
-//! for roughness 1 (retro-reflection), and the specular is added on top.
+//! for roughness 1 (retro-reflection), and the specular is added on top:
+//! white dielectric albedo measured 1.02 (roughness 0) to 1.05 (roughness 1)
+//! at normal incidence, 1.42 to 1.56 at 89° view.
 //!
 //! # Multiple scattering
 //!
@@ -42,9 +44,13 @@
 //! `F_ms (1 - E(μo))(1 - E(μi)) / (π (1 - E_avg))`, with
 //! `F_ms = F_avg² E_avg / (1 - F_avg (1 - E_avg))`, where E is the
 //! directional albedo table integrated in code on first use ([`energy`]).
-//! It is reciprocal and makes a white metal reflect 1 at every roughness.
-//! The glass lobe has no compensation (single scattering only): it loses
-//! energy at high roughness like Cycles' single-scatter GGX glass does.
+//! It is reciprocal and makes a white metal reflect 1 at every roughness
+//! (measured 0.998..1.002). The glass lobe is single-scattering Walter et al.
+//! divided by its white directional albedo E(μo) (tabulated per side of the
+//! interface), so white glass also keeps all its energy at every roughness,
+//! as Cycles' multiscatter glass does; that renormalization is not
+//! reciprocal. Without it, white glass at roughness 1 would keep only 0.90
+//! at normal incidence and 0.32 at grazing from outside.
 //!
 //! # Delta lobes
 //!
@@ -92,7 +98,9 @@
 //! - Degenerate normals (zero, NaN) fall back to the other normal, or +Z.
 //!
 //! Transmission keeps Cycles' convention of not scaling radiance by 1/eta²
-//! (see [`glass`]), so `eval` is reciprocal for reflection only.
+//! (see [`glass`]). `eval` is reciprocal for the diffuse and specular lobes
+//! (tested); the glass lobe is not (renormalization, eta²), nor are pairs
+//! where the shading normal had to be bent, since the bend depends on `wo`.
 
 mod diffuse;
 mod energy;

@@ -88,7 +88,13 @@ impl Bsdf {
                 if sss_weight.max_element() > 0.0 {
                     subsurface = Some(SubsurfaceLobe {
                         weight: sss_weight,
-                        entry_weight: Vec3::select(walks, Vec3::splat(diffuse_weight), Vec3::ZERO),
+                        // Cycles' safe_divide(weight, albedo): zero where the
+                        // albedo is zero.
+                        entry_weight: Vec3::select(
+                            walks & mixed.cmpgt(Vec3::ZERO),
+                            Vec3::splat(diffuse_weight),
+                            Vec3::ZERO,
+                        ),
                         medium: SubsurfaceMedium::from_albedo_and_radius(
                             mixed,
                             radius,
@@ -111,8 +117,12 @@ impl Bsdf {
                 Specular::new(m.roughness, alpha, delta, cspec0),
             )
         });
-        let glass = (final_transmission > CLOSURE_WEIGHT_CUTOFF)
-            .then(|| (final_transmission, Glass::new(alpha, delta, base)));
+        let glass = (final_transmission > CLOSURE_WEIGHT_CUTOFF).then(|| {
+            (
+                final_transmission,
+                Glass::new(m.roughness, alpha, delta, base),
+            )
+        });
 
         Bsdf {
             normals: SurfaceNormals::new(n, ng),
@@ -150,7 +160,7 @@ impl Bsdf {
                     let value = lobe.delta_weight(p.wo) * weight;
                     return delta_sample(&p, wi, value / selected, selected);
                 }
-                lobe.sample(p.wo, u1, u2)?
+                lobe.sample(p.wo, u_reuse, u1, u2)?
             }
             GLASS => {
                 let (weight, lobe) = self.glass?;
@@ -165,7 +175,8 @@ impl Bsdf {
                 let sss = self.subsurface?;
                 let down = sample_cosine(u1, u2) * Vec3::new(1.0, 1.0, -1.0);
                 let wi = p.frame.to_world(down).normalize_or_zero();
-                if !(p.frame.geometric_cos(wi) < 0.0) {
+                let cos_g = p.frame.geometric_cos(wi);
+                if cos_g.is_nan() || cos_g >= 0.0 {
                     return None;
                 }
                 return Some(BsdfSample {
@@ -179,7 +190,7 @@ impl Bsdf {
         };
         let wi = p.frame.to_world(local).normalize_or_zero();
         let e = self.eval_prepared(&p, wi);
-        if !(e.pdf > 0.0) {
+        if e.pdf.is_nan() || e.pdf <= 0.0 {
             return None;
         }
         let weight = e.value / e.pdf;

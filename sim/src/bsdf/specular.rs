@@ -4,6 +4,7 @@
 //! single scattering. Local frame, weight-free: the caller scales by the
 //! Principled mixing weight.
 
+use super::diffuse::{cosine_pdf, sample_cosine};
 use super::energy::tables;
 use super::fresnel::{specular_ior, PrincipledFresnel};
 use super::ggx::{ggx_d, ggx_g1, reflect, sample_vndf};
@@ -84,7 +85,18 @@ impl Specular {
         single + multi
     }
 
-    /// Density of [`Self::sample`] (visible-normal sampling).
+    /// Probability of sampling the multiple-scattering part by cosine
+    /// instead of visible normals: the share of energy it carries for a
+    /// white lobe, 1 - E(μo).
+    fn cosine_share(&self, wo: Vec3) -> f32 {
+        match self.multi {
+            Some(_) => (1.0 - tables().albedo(wo.z, self.roughness)).clamp(0.0, 1.0),
+            None => 0.0,
+        }
+    }
+
+    /// Density of [`Self::sample`]: visible normals mixed with a cosine
+    /// share for the multiple-scattering lobe.
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         if self.delta || wi.z <= 0.0 || wo.z <= 0.0 {
             return 0.0;
@@ -93,12 +105,18 @@ impl Specular {
         if h == Vec3::ZERO {
             return 0.0;
         }
-        ggx_g1(wo, self.alpha) * ggx_d(h, self.alpha) / (4.0 * wo.z)
+        let q = self.cosine_share(wo);
+        let vndf = ggx_g1(wo, self.alpha) * ggx_d(h, self.alpha) / (4.0 * wo.z);
+        (1.0 - q) * vndf + q * cosine_pdf(wi)
     }
 
-    /// A reflected direction from a sampled visible normal; None when it
-    /// falls below the shading surface. Not for delta lobes.
-    pub fn sample(&self, wo: Vec3, u1: f32, u2: f32) -> Option<Vec3> {
+    /// A direction from a sampled visible normal, or with the cosine share a
+    /// cosine direction (`u_choice` decides); None when it falls below the
+    /// shading surface. Not for delta lobes.
+    pub fn sample(&self, wo: Vec3, u_choice: f32, u1: f32, u2: f32) -> Option<Vec3> {
+        if u_choice < self.cosine_share(wo) {
+            return Some(sample_cosine(u1, u2));
+        }
         let h = sample_vndf(wo, self.alpha, u1, u2);
         let wi = reflect(wo, h).normalize_or_zero();
         (wi.z > 0.0).then_some(wi)

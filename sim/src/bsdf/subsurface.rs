@@ -109,11 +109,12 @@ impl SubsurfaceExit {
             return BsdfEval::ZERO;
         };
         let wi = wi.normalize_or_zero();
-        if !(frame.geometric_cos(wi) > 0.0) {
+        let cos_g = frame.geometric_cos(wi);
+        if cos_g.is_nan() || cos_g <= 0.0 {
             return BsdfEval::ZERO;
         }
         let local = frame.to_local(wi);
-        if !(local.z > 0.0) {
+        if local.z.is_nan() || local.z <= 0.0 {
             return BsdfEval::ZERO;
         }
         BsdfEval {
@@ -129,7 +130,7 @@ impl SubsurfaceExit {
         let local = sample_cosine(clamp_unit(u[0]), clamp_unit(u[1]));
         let wi = frame.to_world(local).normalize_or_zero();
         let e = self.eval(wi);
-        if !(e.pdf > 0.0) {
+        if e.pdf.is_nan() || e.pdf <= 0.0 {
             return None;
         }
         let weight = e.value / e.pdf;
@@ -195,12 +196,13 @@ mod tests {
 
     #[test]
     fn remapped_medium_returns_about_the_desired_albedo() {
-        // The fit is approximate; this pins how close it is for the walk the
-        // integrator runs (index matched, isotropic, cosine entry).
+        // Pins how close Cycles' fit is for the walk the integrator runs
+        // (index matched, isotropic, cosine entry): within a percent up to
+        // A = 0.8; near-white media return ~5% less (0.90 for A = 0.95).
         let mut rng = Pcg32::new(3, 5);
-        for a in [0.2_f32, 0.5, 0.8, 0.95] {
+        for (a, tolerance) in [(0.2_f32, 0.015), (0.5, 0.015), (0.8, 0.015), (0.95, 0.07)] {
             let got = half_space_albedo(single_scattering_albedo(a), 20_000, &mut rng);
-            assert!((got - a).abs() < 0.06, "A {a}: walk returns {got}");
+            assert!((got - a).abs() < tolerance, "A {a}: walk returns {got}");
         }
     }
 

@@ -16,10 +16,10 @@ use super::environment::Environment;
 use super::error::SimError;
 use super::integrator::{MaterialMode, Pass, PassKey, ProjectorTerm};
 use super::lights::{Flash, Panel, ProjectorLight};
-use super::truth::{render_truth, TruthMaps};
+use super::truth::{render_panel_mask, render_truth, TruthMaps};
 use super::world::{ObjectGeometry, World};
 use crate::scene::{RigPosition, Scene};
-use matscan_scan::raster::RgbRaster;
+use matscan_scan::raster::{MaskRaster, RgbRaster};
 use matscan_scan::{Pattern, PinholeCamera};
 
 /// Samples per pixel when nothing else is asked for: the figure that keeps a
@@ -282,6 +282,14 @@ impl<'a> Renderer<'a> {
         let panel = self.panel(position)?;
         let world = World::new(&self.object, panel.as_ref());
         Ok(render_truth(&world, &camera, &self.scene.material))
+    }
+
+    /// Pixels showing the front of the backlight panel (white reference).
+    pub fn panel_mask(&self, position: usize) -> Result<MaskRaster, SimError> {
+        let camera = self.camera(position)?;
+        let panel = self.panel(position)?;
+        let world = World::new(&self.object, panel.as_ref());
+        Ok(render_panel_mask(&world, &camera))
     }
 
     fn pass<'p>(

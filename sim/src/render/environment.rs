@@ -324,8 +324,10 @@ fn map_cell_means(map: &RgbRaster) -> (usize, usize, Vec<f32>) {
 /// ground below the horizon, a sun-like disc, and two or three broad
 /// bright patches (windows, lamps, bright facades) of random colour, so the
 /// ambient light has a direction and a tint like a real room or street.
-/// Radiance at strength 1: sky about 0.3 to 1, sun irradiance 2 to 8 at
-/// normal incidence, patches 1.5 to 4 times the horizon.
+/// Relative levels: sun irradiance at normal incidence 2 to 8 times a sky
+/// of 0.3 to 1, patches 1.5 to 4 times the horizon; the whole sky is then
+/// scaled to a mean luminance over the sphere of 1 at strength 1 (the rig's
+/// light levels are balanced against that, see `crate::scene::rig`).
 #[derive(Debug, Clone)]
 struct ProceduralSky {
     zenith: Vec3,
@@ -390,7 +392,7 @@ impl ProceduralSky {
                 }
             })
             .collect();
-        ProceduralSky {
+        let mut sky = ProceduralSky {
             zenith,
             horizon,
             ground,
@@ -398,19 +400,62 @@ impl ProceduralSky {
             sun_cos_radius: radius.cos(),
             sun_radiance,
             patches,
+        };
+        let mean = sky.mean_luminance();
+        if mean > 0.0 && mean.is_finite() {
+            sky.scale(1.0 / mean);
+        }
+        sky
+    }
+
+    /// Mean luminance over the sphere: the gradient integrated numerically
+    /// over height (d omega = d phi d y), the sun disc and the patches
+    /// exactly by their solid angles (they add to the gradient).
+    fn mean_luminance(&self) -> f32 {
+        const STEPS: usize = 4096;
+        let mut base = 0.0f64;
+        for i in 0..STEPS {
+            let y = -1.0 + 2.0 * (i as f32 + 0.5) / STEPS as f32;
+            base += luminance(self.gradient(y)) as f64 * 2.0 / STEPS as f64;
+        }
+        // 2 pi * integral over y, divided by 4 pi.
+        let mut mean = base / 2.0;
+        let sun_solid_angle = 2.0 * PI * (1.0 - self.sun_cos_radius);
+        mean += (luminance(self.sun_radiance) * sun_solid_angle / (4.0 * PI)) as f64;
+        for p in &self.patches {
+            let top = (p.elevation + p.half_elevation).min(PI / 2.0);
+            let bottom = (p.elevation - p.half_elevation).max(-PI / 2.0);
+            let solid_angle = 2.0 * p.half_azimuth * (top.sin() - bottom.sin()).max(0.0);
+            mean += (luminance(p.radiance) * solid_angle / (4.0 * PI)) as f64;
+        }
+        mean as f32
+    }
+
+    fn scale(&mut self, k: f32) {
+        self.zenith *= k;
+        self.horizon *= k;
+        self.ground *= k;
+        self.sun_radiance *= k;
+        for p in &mut self.patches {
+            p.radiance *= k;
         }
     }
 
-    fn radiance(&self, d: Vec3) -> Vec3 {
-        let y = d.y.clamp(-1.0, 1.0);
-        let mut c = if y >= 0.0 {
+    /// The sky and ground without the sun and patches, by height y.
+    fn gradient(&self, y: f32) -> Vec3 {
+        if y >= 0.0 {
             self.horizon.lerp(self.zenith, y.sqrt())
         } else {
             // A short blend below the horizon avoids a seam of infinite
             // contrast that would alias at the silhouette of reflections.
             let t = (-y / 0.08).min(1.0);
             self.horizon.lerp(self.ground, t)
-        };
+        }
+    }
+
+    fn radiance(&self, d: Vec3) -> Vec3 {
+        let y = d.y.clamp(-1.0, 1.0);
+        let mut c = self.gradient(y);
         if d.dot(self.sun_dir) >= self.sun_cos_radius {
             c += self.sun_radiance;
         }
@@ -518,6 +563,22 @@ mod tests {
             unreachable!()
         };
         assert!(luminance(a.radiance(sky.sun_dir)) > 100.0 * luminance(a.radiance(Vec3::Y)));
+    }
+
+    #[test]
+    fn procedural_sky_has_mean_luminance_one_at_strength_one() {
+        for seed in [1, 2, 3] {
+            let env = Environment::procedural(seed, 1.0, 0.3);
+            let mut rng = PixelRng::new(seed, 0, 0, 0);
+            let n = 100_000;
+            let mut acc = 0.0f64;
+            for _ in 0..n {
+                let s = env.sample(rng.next2()).unwrap();
+                acc += (luminance(s.radiance) / s.pdf) as f64;
+            }
+            let mean = acc / n as f64 / (4.0 * std::f64::consts::PI);
+            assert!((mean - 1.0).abs() < 0.03, "seed {seed}: {mean}");
+        }
     }
 
     #[test]

@@ -178,9 +178,7 @@ impl Pass<'_> {
                             sp.shading_normal,
                             sp.geometric_normal,
                         )),
-                        MaterialMode::Authored(field) => {
-                            super::shading::principled(&field.at(&sp), &sp)
-                        }
+                        MaterialMode::Authored(field) => Shader::principled(&field.at(&sp), &sp),
                     };
                     (sp.position, sp.geometric_normal, shader, false)
                 }
@@ -235,10 +233,17 @@ impl Pass<'_> {
             *vertices += 1;
             // The exit is a vertex: light reaches it from outside through
             // the exit lobe, and the path leaves through it.
-            let exit_shader = shader.subsurface_exit(&exit.surface)?;
             let xp = exit.surface.position;
-            let xng = exit.surface.geometric_normal;
-            let wo = -exit.dir;
+            // Normals facing out of the object, whatever the mesh winding.
+            let out_side = if exit.dir.dot(exit.surface.geometric_normal) >= 0.0 {
+                1.0
+            } else {
+                -1.0
+            };
+            let xng = exit.surface.geometric_normal * out_side;
+            let xns = exit.surface.shading_normal * out_side;
+            let exit_shader = Shader::SubsurfaceExit(medium.exit(xns, xng));
+            let wo = xng;
             self.direct(xp, xng, wo, &exit_shader, false, *beta, rng, out);
             let xs = exit_shader.sample(wo, rng.next3())?;
             *beta *= xs.weight;

@@ -12,12 +12,15 @@
 //! - [`integrator`]: the path tracer, one pass filling several emitter slots;
 //! - [`capture`]: captures of a position as sums of slots, `illum_` images;
 //! - [`truth`]: ground-truth maps and the object mask;
+//! - [`drowned`]: positions where the environment drowns the rig lights;
 //! - [`bundle_writer`]: a complete `matscan-scan/1` bundle of a scene.
 //!
 //! Boundaries: renders what `crate::scene` describes; reads and writes
 //! files only through `matscan-scan`.
 
+pub mod bundle_writer;
 pub mod capture;
+pub mod drowned;
 pub mod environment;
 pub mod error;
 pub mod integrator;
@@ -32,6 +35,7 @@ pub use capture::{
     render_capture, CaptureSpec, ObjectMaterial, PositionImages, RenderOptions, Renderer, DEFAULT_MAX_DEPTH,
     DEFAULT_SAMPLES,
 };
+pub use bundle_writer::{write_scan_bundle, SimOptions};
 pub use environment::Environment;
 pub use error::SimError;
 pub use truth::TruthMaps;

@@ -11,7 +11,10 @@
 //! `f * |cos(wi)|` and the solid-angle density of `sample` producing `wi`.
 
 use super::sampling::{cosine_hemisphere, Frame};
+use crate::bsdf::{Bsdf, BsdfEval, BsdfSample, LobeKind, SubsurfaceExit, SubsurfaceMedium};
+use crate::material::Material;
 use glam::Vec3;
+use matscan_scan::SurfacePoint;
 use std::f32::consts::FRAC_1_PI;
 
 /// `f * |cos|` and the sampling density of a direction pair.
@@ -110,33 +113,60 @@ impl Lambert {
 #[derive(Debug, Clone)]
 pub enum Shader {
     Lambert(Lambert),
+    Principled(Bsdf),
+    /// Where a subsurface walk leaves the object (colourless: the walk's
+    /// throughput carries the colour).
+    SubsurfaceExit(SubsurfaceExit),
 }
 
 impl Shader {
+    /// The object's Principled BSDF at a surface point.
+    pub fn principled(m: &Material, sp: &SurfacePoint) -> Shader {
+        Shader::Principled(Bsdf::new(m, sp.shading_normal, sp.geometric_normal))
+    }
+
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> Eval {
         match self {
             Shader::Lambert(l) => l.eval(wo, wi),
+            Shader::Principled(b) => from_bsdf_eval(b.eval(wo, wi)),
+            Shader::SubsurfaceExit(x) => from_bsdf_eval(x.eval(wi)),
         }
     }
 
     pub fn sample(&self, wo: Vec3, u: [f32; 3]) -> Option<Sampled> {
         match self {
             Shader::Lambert(l) => l.sample(wo, u),
+            Shader::Principled(b) => b.sample(wo, u).map(from_bsdf_sample),
+            Shader::SubsurfaceExit(x) => x.sample([u[1], u[2]]).map(from_bsdf_sample),
+        }
+    }
+
+    /// The random-walk medium, when this is a subsurface material.
+    pub fn subsurface_medium(&self) -> Option<SubsurfaceMedium> {
+        match self {
+            Shader::Principled(b) => b.subsurface_medium(),
+            _ => None,
         }
     }
 }
 
-// SCAFFOLD until crate::bsdf lands: replaced by the Principled BSDF.
-pub fn principled(m: &crate::material::Material, sp: &matscan_scan::SurfacePoint) -> Shader {
-    Shader::Lambert(Lambert::new(m.basecolor, sp.shading_normal, sp.geometric_normal))
+fn from_bsdf_eval(e: BsdfEval) -> Eval {
+    Eval {
+        value: e.value,
+        pdf: e.pdf,
+    }
 }
 
-impl Shader {
-    pub fn subsurface_medium(&self) -> Option<super::subsurface::Medium> {
-        None
-    }
-
-    pub fn subsurface_exit(&self, _sp: &matscan_scan::SurfacePoint) -> Option<Shader> {
-        None
+fn from_bsdf_sample(s: BsdfSample) -> Sampled {
+    Sampled {
+        wi: s.wi,
+        weight: s.weight,
+        pdf: s.pdf,
+        lobe: match s.kind {
+            LobeKind::Reflection => Lobe::Reflection,
+            LobeKind::Transmission => Lobe::Transmission,
+            LobeKind::SubsurfaceEntry => Lobe::SubsurfaceEntry,
+        },
+        delta: s.specular_delta,
     }
 }

@@ -20,20 +20,12 @@
 
 use super::sampling::{uniform_sphere, PixelRng};
 use super::world::World;
+use crate::bsdf::SubsurfaceMedium;
 use glam::Vec3;
 use matscan_scan::{Ray, SurfacePoint};
 
 /// Most scattering events of one walk.
 pub const MAX_STEPS: u32 = 256;
-
-/// A homogeneous scattering medium, per RGB channel.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Medium {
-    /// Extinction coefficient (1 / mean free path), per scene unit.
-    pub sigma_t: Vec3,
-    /// Single-scattering albedo in [0, 1].
-    pub albedo: Vec3,
-}
 
 /// Where a walk leaves the object.
 #[derive(Debug, Clone, Copy)]
@@ -48,7 +40,7 @@ pub struct WalkExit {
 /// Walks from `start` (just inside the surface) in direction `dir`.
 pub fn walk(
     world: &World,
-    medium: &Medium,
+    medium: &SubsurfaceMedium,
     start: Vec3,
     dir: Vec3,
     rng: &mut PixelRng,

@@ -69,3 +69,24 @@ pub fn render_truth(world: &World, camera: &PinholeCamera, field: &MaterialField
         }),
     }
 }
+
+/// Pixels whose centre sees the front of the backlight panel first: the
+/// white diffuse reference of the switched-off panel.
+pub fn render_panel_mask(world: &World, camera: &PinholeCamera) -> MaskRaster {
+    let (w, h) = (camera.intrinsics.width, camera.intrinsics.height);
+    let front = world.panel.map(|p| p.front);
+    let hits: Vec<bool> = (0..w as usize * h as usize)
+        .into_par_iter()
+        .map(|i| {
+            let (x, y) = ((i % w as usize) as u32, (i / w as usize) as u32);
+            let ray = camera.pixel_ray(x, y);
+            match (world.intersect(&ray), front) {
+                (Some(hit), Some(n)) => {
+                    matches!(hit.surface, Surface::Panel { .. }) && ray.dir.dot(n) < 0.0
+                }
+                _ => false,
+            }
+        })
+        .collect();
+    MaskRaster::from_fn(w, h, |x, y| hits[y as usize * w as usize + x as usize])
+}

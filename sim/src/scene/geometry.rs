@@ -29,7 +29,7 @@
 use super::maps::displacement_map;
 use super::noise::{fbm3, hash64};
 use super::{SceneError, Texture};
-use glam::{Affine3A, Mat3, Quat, Vec2, Vec3};
+use glam::{Affine3A, DVec3, Mat3, Quat, Vec2, Vec3};
 use matscan_scan::Mesh;
 use rand::Rng;
 use rand_pcg::Pcg64;
@@ -101,7 +101,8 @@ impl FromStr for GeometryKind {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GeometryOptions {
     /// Segments around the longest loop (clamped to 16..=1024). The default
-    /// 256 gives 30k to 66k triangles, smooth at 256 x 256 pixels.
+    /// 256 gives 25k to 66k triangles (leaves: 3 to 6 slabs of about 8.5k
+    /// each), smooth at 256 x 256 pixels.
     pub segments: u32,
     /// Random displacement along the normals (thesis 3.1.3.1).
     pub displacement: bool,
@@ -200,7 +201,11 @@ struct Shell {
 
 /// Bits of a position, with -0.0 folded into +0.0 so both weld.
 fn position_key(p: Vec3) -> [u32; 3] {
-    [(p.x + 0.0).to_bits(), (p.y + 0.0).to_bits(), (p.z + 0.0).to_bits()]
+    [
+        (p.x + 0.0).to_bits(),
+        (p.y + 0.0).to_bits(),
+        (p.z + 0.0).to_bits(),
+    ]
 }
 
 fn weld(positions: &[Vec3]) -> Vec<u32> {
@@ -419,7 +424,10 @@ fn placement(rng: &mut Pcg64, points: &[Vec3], random: bool) -> Affine3A {
             rng.gen_range(0.6..=1.0),
         );
         let rotation = Mat3::from_quat(random_rotation(rng));
-        (rotation * Mat3::from_diagonal(scale), rng.gen_range(0.7..0.95))
+        (
+            rotation * Mat3::from_diagonal(scale),
+            rng.gen_range(0.7..0.95),
+        )
     } else {
         (Mat3::IDENTITY, 0.9)
     };
@@ -496,12 +504,7 @@ impl LeafGrid {
     }
 }
 
-fn random_leaf(
-    rng: &mut Pcg64,
-    nu: u32,
-    nv: u32,
-    displacement: Option<&Displacement>,
-) -> LeafGrid {
+fn random_leaf(rng: &mut Pcg64, nu: u32, nv: u32, displacement: Option<&Displacement>) -> LeafGrid {
     let length: f32 = rng.gen_range(0.5..0.9);
     let width: f32 = rng.gen_range(0.2..0.4);
     let bend_s: f32 = rng.gen_range(-0.8..0.8);
@@ -669,10 +672,7 @@ impl UserMesh {
     pub fn new(mesh: Mesh, projection: UvProjection) -> Result<UserMesh, SceneError> {
         validate(&mesh)?;
         let mut mesh = mesh;
-        let t = placement_centred(&mesh.positions)?;
-        for p in &mut mesh.positions {
-            *p = t.transform_point3(*p);
-        }
+        fit_centred(&mut mesh.positions)?;
         let normals_ok = mesh.normals.as_ref().is_some_and(|n| {
             n.iter()
                 .all(|v| v.is_finite() && v.length_squared() > 1e-20)
@@ -743,25 +743,26 @@ fn validate(mesh: &Mesh) -> Result<(), SceneError> {
     Ok(())
 }
 
-/// Centres the used vertices and scales them to a largest extent of 0.9.
-fn placement_centred(positions: &[Vec3]) -> Result<Affine3A, SceneError> {
+/// Centres the vertices and scales them to a largest extent of 0.9, in f64
+/// so that coordinates near the f32 limits neither overflow nor underflow.
+fn fit_centred(positions: &mut [Vec3]) -> Result<(), SceneError> {
     let (lo, hi) = positions.iter().fold(
-        (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)),
-        |(lo, hi), &p| (lo.min(p), hi.max(p)),
+        (DVec3::splat(f64::MAX), DVec3::splat(f64::MIN)),
+        |(lo, hi), &p| (lo.min(p.as_dvec3()), hi.max(p.as_dvec3())),
     );
     let extent = (hi - lo).max_element();
     // Relative to the coordinates' magnitude, so a millimetre-sized object
     // far from its origin is still accepted.
     let magnitude = lo.abs().max(hi.abs()).max_element();
-    if !(extent > 1e-6 * magnitude.max(1e-30)) {
+    if extent <= 1e-6 * magnitude || extent <= 0.0 {
         return Err(SceneError::Degenerate);
     }
     let k = 0.9 / extent;
-    let centre = (lo.as_dvec3() + hi.as_dvec3()) * 0.5;
-    Ok(Affine3A::from_mat3_translation(
-        Mat3::from_diagonal(Vec3::splat(k)),
-        (-centre * k as f64).as_vec3(),
-    ))
+    let centre = (lo + hi) * 0.5;
+    for p in positions {
+        *p = ((p.as_dvec3() - centre) * k).as_vec3();
+    }
+    Ok(())
 }
 
 /// Rebuilds `mesh` with new per-corner UVs, splitting a vertex once per
@@ -926,16 +927,24 @@ mod tests {
                 assert_closed_and_oriented(&mesh, &what);
                 assert!(signed_volume(&mesh) > 0.0, "{what}: inward");
                 let (lo, hi) = mesh.bounds().unwrap();
-                assert!(lo.min_element() >= -BOX_HALF && hi.max_element() <= BOX_HALF, "{what}: {lo} {hi}");
+                assert!(
+                    lo.min_element() >= -BOX_HALF && hi.max_element() <= BOX_HALF,
+                    "{what}: {lo} {hi}"
+                );
                 assert!((hi - lo).max_element() > 0.6, "{what}: too small {lo} {hi}");
                 let normals = mesh.normals.as_ref().unwrap();
                 assert_eq!(normals.len(), mesh.positions.len());
                 assert!(normals.iter().all(|n| (n.length() - 1.0).abs() < 1e-4));
                 let uvs = mesh.uvs.as_ref().unwrap();
                 assert_eq!(uvs.len(), mesh.positions.len());
-                assert!(uvs.iter().all(|t| (0.0..=1.0).contains(&t.x) && (0.0..=1.0).contains(&t.y)));
+                assert!(uvs
+                    .iter()
+                    .all(|t| (0.0..=1.0).contains(&t.x) && (0.0..=1.0).contains(&t.y)));
                 let tris = mesh.triangle_count();
-                assert!((20_000..=80_000).contains(&tris), "{what}: {tris} triangles");
+                assert!(
+                    (20_000..=80_000).contains(&tris),
+                    "{what}: {tris} triangles"
+                );
                 assert!(mesh.positions.iter().all(|p| p.is_finite()));
             }
         }
@@ -982,7 +991,9 @@ mod tests {
         let inner = mesh.positions[32 * 129].length();
         assert!(outer > inner && inner > 0.0);
         let ring = 0.5 * (outer + inner);
-        let frac = outward_fraction(&mesh, |p| Vec3::new(p.x, 0.0, p.z).normalize_or_zero() * ring);
+        let frac = outward_fraction(&mesh, |p| {
+            Vec3::new(p.x, 0.0, p.z).normalize_or_zero() * ring
+        });
         assert_eq!(frac, 1.0);
     }
 
@@ -1000,8 +1011,12 @@ mod tests {
             .map(|(p, b)| p.length() - b)
             .collect();
         let worst = deltas.iter().fold(0.0f32, |a, b| a.max(b.abs()));
-        assert!(worst <= d.magnitude() * 1.001 && worst > 0.2 * d.magnitude(), "{worst}");
-        let spread = deltas.iter().fold(f32::MIN, |a, &b| a.max(b)) - deltas.iter().fold(f32::MAX, |a, &b| a.min(b));
+        assert!(
+            worst <= d.magnitude() * 1.001 && worst > 0.2 * d.magnitude(),
+            "{worst}"
+        );
+        let spread = deltas.iter().fold(f32::MIN, |a, &b| a.max(b))
+            - deltas.iter().fold(f32::MAX, |a, &b| a.min(b));
         assert!(spread > 0.5 * d.magnitude(), "{spread}");
         // Displaced meshes stay closed (split seam copies moved together).
         assert_closed_and_oriented(&shell.into_mesh(), "displaced sphere");
@@ -1009,7 +1024,11 @@ mod tests {
 
     #[test]
     fn displaced_star_shapes_keep_nearly_all_normals_outward() {
-        for kind in [GeometryKind::Sphere, GeometryKind::Blob, GeometryKind::Superquadric] {
+        for kind in [
+            GeometryKind::Sphere,
+            GeometryKind::Blob,
+            GeometryKind::Superquadric,
+        ] {
             let mut r = rng(21);
             let options = GeometryOptions {
                 random_placement: false,
@@ -1025,7 +1044,11 @@ mod tests {
 
     #[test]
     fn leaves_are_separate_thin_slabs() {
-        let mesh = generate_mesh(GeometryKind::Leaves, &mut rng(5), &GeometryOptions::default());
+        let mesh = generate_mesh(
+            GeometryKind::Leaves,
+            &mut rng(5),
+            &GeometryOptions::default(),
+        );
         // Connected components of the welded mesh: one per leaf, 3 to 6.
         let canon = weld(&mesh.positions);
         let mut parent: Vec<u32> = (0..mesh.positions.len() as u32).collect();
@@ -1061,15 +1084,24 @@ mod tests {
             })
             .sum();
         let thickness = 2.0 * signed_volume(&mesh) / area;
-        assert!((thickness - LEAF_THICKNESS as f64).abs() < 0.3 * LEAF_THICKNESS as f64, "{thickness}");
+        assert!(
+            (thickness - LEAF_THICKNESS as f64).abs() < 0.3 * LEAF_THICKNESS as f64,
+            "{thickness}"
+        );
     }
 
     #[test]
     fn geometry_is_deterministic_per_seed() {
         let o = GeometryOptions::default();
         for kind in [GeometryKind::Blob, GeometryKind::Leaves] {
-            assert_eq!(generate_mesh(kind, &mut rng(8), &o), generate_mesh(kind, &mut rng(8), &o));
-            assert_ne!(generate_mesh(kind, &mut rng(8), &o), generate_mesh(kind, &mut rng(9), &o));
+            assert_eq!(
+                generate_mesh(kind, &mut rng(8), &o),
+                generate_mesh(kind, &mut rng(8), &o)
+            );
+            assert_ne!(
+                generate_mesh(kind, &mut rng(8), &o),
+                generate_mesh(kind, &mut rng(9), &o)
+            );
         }
     }
 
@@ -1086,10 +1118,23 @@ mod tests {
     /// the origin and in millimetres.
     fn cube() -> Mesh {
         let positions = (0..8)
-            .map(|i| Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32) * 40.0 + 1000.0)
+            .map(|i| {
+                Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32) * 40.0
+                    + 1000.0
+            })
             .collect();
-        let quads = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
-        let triangles = quads.iter().flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]).collect();
+        let quads = [
+            [0, 2, 3, 1],
+            [4, 5, 7, 6],
+            [0, 1, 5, 4],
+            [2, 6, 7, 3],
+            [0, 4, 6, 2],
+            [1, 3, 7, 5],
+        ];
+        let triangles = quads
+            .iter()
+            .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
+            .collect();
         Mesh {
             positions,
             normals: None,
@@ -1106,7 +1151,9 @@ mod tests {
         assert!((lo + Vec3::splat(0.45)).abs().max_element() < 1e-5, "{lo}");
         assert!((hi - Vec3::splat(0.45)).abs().max_element() < 1e-5, "{hi}");
         let uvs = m.uvs.as_ref().unwrap();
-        assert!(uvs.iter().all(|t| (0.0..=1.0).contains(&t.x) && (0.0..=1.0).contains(&t.y)));
+        assert!(uvs
+            .iter()
+            .all(|t| (0.0..=1.0).contains(&t.x) && (0.0..=1.0).contains(&t.y)));
         // Each face went to its own atlas cell: 6 faces x 4 corners.
         assert_eq!(m.positions.len(), 24);
         assert_closed_and_oriented(m, "cube");
@@ -1116,7 +1163,11 @@ mod tests {
             .triangles
             .iter()
             .map(|t| {
-                let c = t.map(|i| uvs[i as usize]).iter().fold(Vec2::ZERO, |a, &b| a + b) / 3.0;
+                let c = t
+                    .map(|i| uvs[i as usize])
+                    .iter()
+                    .fold(Vec2::ZERO, |a, &b| a + b)
+                    / 3.0;
                 ((c.x * 3.0) as u32, (c.y * 2.0) as u32)
             })
             .collect();
@@ -1136,14 +1187,32 @@ mod tests {
         let user = UserMesh::new(sphere_mesh, UvProjection::Spherical).unwrap();
         let m = user.mesh();
         let uvs = m.uvs.as_ref().unwrap();
-        assert!(uvs.iter().all(|t| (0.0..1.5).contains(&t.x) && (0.0..=1.0).contains(&t.y)));
+        assert!(uvs
+            .iter()
+            .all(|t| (0.0..1.5).contains(&t.x) && (0.0..=1.0).contains(&t.y)));
         for t in &m.triangles {
             let us = t.map(|i| uvs[i as usize].x);
-            let span = us.iter().fold(f32::MIN, |a, &b| a.max(b)) - us.iter().fold(f32::MAX, |a, &b| a.min(b));
+            let span = us.iter().fold(f32::MIN, |a, &b| a.max(b))
+                - us.iter().fold(f32::MAX, |a, &b| a.min(b));
             assert!(span < 0.5, "{us:?}");
         }
         // Normals were computed (none given) and point outward.
         assert_eq!(outward_fraction(m, |_| Vec3::ZERO), 1.0);
+    }
+
+    #[test]
+    fn user_meshes_at_extreme_scales_are_fitted_into_the_box() {
+        for scale in [1e-30f32, 1e-3, 1e3, 1e30] {
+            let mut m = cube();
+            m.positions.iter_mut().for_each(|p| *p *= scale);
+            let user = UserMesh::new(m, UvProjection::Box).unwrap();
+            let (lo, hi) = user.mesh().bounds().unwrap();
+            assert!(
+                (hi - lo - Vec3::splat(0.9)).abs().max_element() < 1e-4,
+                "{scale}: {lo} {hi}"
+            );
+            assert!(((hi + lo) * 0.5).abs().max_element() < 1e-4, "{scale}");
+        }
     }
 
     #[test]
@@ -1158,24 +1227,43 @@ mod tests {
     #[test]
     fn invalid_user_meshes_are_rejected_with_the_reason() {
         let empty = Mesh::default();
-        assert_eq!(UserMesh::new(empty, UvProjection::Box), Err(SceneError::EmptyMesh));
+        assert_eq!(
+            UserMesh::new(empty, UvProjection::Box),
+            Err(SceneError::EmptyMesh)
+        );
         let mut bad = cube();
         bad.triangles[3][1] = 99;
         assert!(matches!(
             UserMesh::new(bad, UvProjection::Box),
-            Err(SceneError::IndexOutOfRange { triangle: 3, index: 99, count: 8 })
+            Err(SceneError::IndexOutOfRange {
+                triangle: 3,
+                index: 99,
+                count: 8
+            })
         ));
         let mut nan = cube();
         nan.positions[2].y = f32::NAN;
-        assert_eq!(UserMesh::new(nan, UvProjection::Box), Err(SceneError::NonFinitePosition(2)));
+        assert_eq!(
+            UserMesh::new(nan, UvProjection::Box),
+            Err(SceneError::NonFinitePosition(2))
+        );
         let mut flat = cube();
-        flat.positions.iter_mut().for_each(|p| *p = Vec3::splat(3.0));
-        assert_eq!(UserMesh::new(flat, UvProjection::Box), Err(SceneError::Degenerate));
+        flat.positions
+            .iter_mut()
+            .for_each(|p| *p = Vec3::splat(3.0));
+        assert_eq!(
+            UserMesh::new(flat, UvProjection::Box),
+            Err(SceneError::Degenerate)
+        );
         let mut short = cube();
         short.normals = Some(vec![Vec3::Z; 3]);
         assert!(matches!(
             UserMesh::new(short, UvProjection::Box),
-            Err(SceneError::AttributeLength { what: "normals", got: 3, count: 8 })
+            Err(SceneError::AttributeLength {
+                what: "normals",
+                got: 3,
+                count: 8
+            })
         ));
     }
 }

@@ -168,7 +168,7 @@ impl SceneKind {
                 let labels = labels_from(&binary_map(rng, map_size), None);
                 let a = random_material(rng);
                 let b = random_material(rng);
-                field_by_label(&labels, &[b, a])
+                field_by_label(&labels, &[a, b])
             }
             SceneKind::TwoMatTransmission => {
                 let labels = labels_from(&binary_map(rng, map_size), None);
@@ -178,7 +178,7 @@ impl SceneKind {
                     ..random_material(rng)
                 };
                 let b = random_material(rng);
-                field_by_label(&labels, &[b, a])
+                field_by_label(&labels, &[a, b])
             }
             SceneKind::ThreeMat => {
                 let first = binary_map(rng, map_size);
@@ -193,7 +193,7 @@ impl SceneKind {
                     metallic: other.metallic,
                     ..b1
                 };
-                field_by_label(&labels, &[b2, b1, a])
+                field_by_label(&labels, &[a, b1, b2])
             }
             _ => MaterialField {
                 basecolor: Texture::Map(color_map(rng, map_size)),
@@ -253,16 +253,16 @@ pub fn random_material(rng: &mut Pcg64) -> Material {
     }
 }
 
-/// Region labels: 2 where `first` is set; elsewhere 1 where `split` is set
-/// (or everywhere without a split), else 0.
+/// Region labels: 0 where `first` is set; elsewhere 1 where `split` is set
+/// (or everywhere without a split), else 2.
 fn labels_from(first: &Raster<f32>, split: Option<&Raster<f32>>) -> Raster<u8> {
     Raster::from_fn(first.width, first.height, |x, y| {
         if *first.get(x, y) >= 0.5 {
-            2
+            0
         } else if split.is_none_or(|s| *s.get(x, y) >= 0.5) {
             1
         } else {
-            0
+            2
         }
     })
 }
@@ -366,15 +366,21 @@ mod tests {
             let metal_share = metallic.data.iter().sum::<f32>() / metallic.data.len() as f32;
             assert!((0.1..0.9).contains(&metal_share), "{metal_share}");
             let rough = map_of(&f.roughness);
-            let (lo, hi) = rough.data.iter().fold((1.0f32, 0.0f32), |(a, b), &v| (a.min(v), b.max(v)));
+            let (lo, hi) = rough
+                .data
+                .iter()
+                .fold((1.0f32, 0.0f32), |(a, b), &v| (a.min(v), b.max(v)));
             assert!(hi - lo > 0.5, "roughness spans {lo}..{hi}");
             for t in [&f.transmission, &f.subsurface] {
                 let m = map_of(t);
-                let zero = m.data.iter().filter(|&&v| v == 0.0).count() as f32 / m.data.len() as f32;
+                let zero =
+                    m.data.iter().filter(|&&v| v == 0.0).count() as f32 / m.data.len() as f32;
                 assert!((0.1..0.9).contains(&zero), "zero share {zero}");
             }
             assert_ne!(f.transmission, f.subsurface);
-            let Texture::Map(c) = &f.basecolor else { panic!("constant basecolor") };
+            let Texture::Map(c) = &f.basecolor else {
+                panic!("constant basecolor")
+            };
             assert!(c.data.iter().any(|p| (p[0] - p[1]).abs() > 0.2));
         }
     }
@@ -385,7 +391,9 @@ mod tests {
             let f = SceneKind::TwoMat.material(&mut rng(seed), seed, N);
             let d = distinct_materials(&f);
             assert_eq!(d.len(), 2, "seed {seed}");
-            assert!(d.iter().all(|m| m[4] == 0f32.to_bits() || m[4] == 1f32.to_bits()));
+            assert!(d
+                .iter()
+                .all(|m| m[4] == 0f32.to_bits() || m[4] == 1f32.to_bits()));
         }
     }
 
@@ -395,7 +403,9 @@ mod tests {
             let f = SceneKind::TwoMatTransmission.material(&mut rng(seed), seed, N);
             let d = distinct_materials(&f);
             assert_eq!(d.len(), 2, "seed {seed}");
-            assert!(d.iter().any(|m| f32::from_bits(m[4]) == 0.0 && f32::from_bits(m[5]) >= 0.3));
+            assert!(d
+                .iter()
+                .any(|m| f32::from_bits(m[4]) == 0.0 && f32::from_bits(m[5]) >= 0.3));
         }
     }
 
@@ -414,7 +424,12 @@ mod tests {
     #[test]
     fn sweeps_are_constant_and_step_through_their_parameter() {
         let sub: Vec<f32> = (0..20)
-            .map(|s| SceneKind::SweepSubsurface.sweep_material(s).unwrap().subsurface)
+            .map(|s| {
+                SceneKind::SweepSubsurface
+                    .sweep_material(s)
+                    .unwrap()
+                    .subsurface
+            })
             .collect();
         assert_eq!(sub[0], 0.0);
         assert_eq!(sub[19], 1.0);
@@ -440,7 +455,10 @@ mod tests {
         let r = SceneKind::SweepRoughness;
         assert_eq!(r.sweep_len(), Some(240));
         let white_metal_rough = r.sweep_material(39).unwrap();
-        assert_eq!((white_metal_rough.metallic, white_metal_rough.roughness), (1.0, 1.0));
+        assert_eq!(
+            (white_metal_rough.metallic, white_metal_rough.roughness),
+            (1.0, 1.0)
+        );
         assert_eq!(white_metal_rough.basecolor, Vec3::ONE);
         let black_dielectric_smooth = r.sweep_material(200).unwrap();
         assert_eq!(black_dielectric_smooth.metallic, 0.0);
@@ -455,7 +473,8 @@ mod tests {
         let mut r = rng(1);
         let ms: Vec<Material> = (0..2000).map(|_| random_material(&mut r)).collect();
         assert!(ms.iter().all(|m| m.metallic == 0.0 || m.metallic == 1.0));
-        let share = |f: &dyn Fn(&Material) -> bool| ms.iter().filter(|m| f(m)).count() as f32 / 2000.0;
+        let share =
+            |f: &dyn Fn(&Material) -> bool| ms.iter().filter(|m| f(m)).count() as f32 / 2000.0;
         assert!((0.3..0.4).contains(&share(&|m| m.metallic == 1.0)));
         assert!((0.2..0.3).contains(&share(&|m| m.transmission > 0.0)));
         assert!((0.25..0.35).contains(&share(&|m| m.subsurface > 0.0)));

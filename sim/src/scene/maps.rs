@@ -440,12 +440,10 @@ mod tests {
     /// wrap-around: m(x, y) == m((c - x) mod n, y), and likewise for rows.
     fn has_wrapped_mirror_axes(m: &Raster<f32>) -> bool {
         let n = m.width;
-        let cols = (0..n).any(|c| {
-            (0..n).all(|y| (0..n).all(|x| m.get(x, y) == m.get((c + n - x) % n, y)))
-        });
-        let rows = (0..n).any(|c| {
-            (0..n).all(|x| (0..n).all(|y| m.get(x, y) == m.get(x, (c + n - y) % n)))
-        });
+        let cols = (0..n)
+            .any(|c| (0..n).all(|y| (0..n).all(|x| m.get(x, y) == m.get((c + n - x) % n, y))));
+        let rows = (0..n)
+            .any(|c| (0..n).all(|x| (0..n).all(|y| m.get(x, y) == m.get(x, (c + n - y) % n))));
         cols && rows
     }
 

@@ -1,15 +1,27 @@
 //! What the simulator renders: an object mesh with spatially varying
 //! material, an environment, and the rig at each position.
 //!
-//! These types are the interface between scene generation (the submodules
-//! here: procedural geometry, parameter maps, rig randomization, scene kinds)
-//! and the renderer (`crate::render`).
+//! These types are the interface between scene generation and the renderer
+//! (`crate::render`). Generation lives in the submodules:
+//!
+//! - [`geometry`]: procedural meshes with UVs, and user meshes;
+//! - [`maps`]: random parameter maps (thesis 3.1.3.1), on [`noise`];
+//! - [`kinds`]: the scene kinds and the material each authors (thesis 3.1.7);
+//! - [`rig`]: the scan head, its randomization and its manifest lights;
+//! - [`generate`](mod@generate): a whole scene from a seed.
 
 pub mod color;
+pub mod generate;
 pub mod geometry;
 pub mod kinds;
 pub mod maps;
 pub mod noise;
+pub mod rig;
+
+pub use generate::{generate, GeometrySource, SceneOptions};
+pub use geometry::{GeometryKind, UserMesh, UvProjection};
+pub use kinds::SceneKind;
+pub use rig::{random_rig, rig_to_manifest_lights, RigOptions};
 
 use crate::material::Material;
 use glam::{DMat4, Vec2, Vec3};
@@ -80,9 +92,11 @@ pub enum EnvSource {
 #[derive(Debug, Clone, PartialEq)]
 pub struct EnvSpec {
     pub source: EnvSource,
-    /// Multiplies the radiance.
+    /// Multiplies the radiance. Scene generation balances the rig's lights
+    /// against a procedural environment of mean radiance 1 before this
+    /// factor (see [`rig`]).
     pub strength: f32,
-    /// Rotation about the world up axis (+Y is up... see `rig`), radians.
+    /// Rotation about the world up axis (+Y, see [`rig`]), radians.
     pub rotation: f32,
 }
 
@@ -108,7 +122,8 @@ pub struct Projector {
     pub intensity: f32,
 }
 
-/// The diffuse panel behind the object, a rectangle facing the camera.
+/// The diffuse panel behind the object, a rectangle facing the camera; its
+/// emitting (front) side is the one `half_u x half_v` points to.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Backlight {
     pub name: String,
@@ -141,7 +156,7 @@ pub struct Rig {
 }
 
 /// One complete simulated scene.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct Scene {
     pub name: String,
     /// Scene kind name (`2mat`, `multimat`, ...), for grouping in evaluation.

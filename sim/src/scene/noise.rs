@@ -29,7 +29,9 @@ fn lattice2(seed: u64, x: i64, y: i64) -> f32 {
 
 fn lattice3(seed: u64, x: i64, y: i64, z: i64) -> f32 {
     let h = hash64((x as u64).wrapping_mul(0x8CB9_2BA7_2F3D_8DD7) ^ (y as u64));
-    unit(hash64(seed ^ hash64(h ^ (z as u64).wrapping_mul(0xD6E8_FEB8_6659_FD93))))
+    unit(hash64(
+        seed ^ hash64(h ^ (z as u64).wrapping_mul(0xD6E8_FEB8_6659_FD93)),
+    ))
 }
 
 /// Quintic fade: C2-continuous, so summed octaves show no lattice creases.

@@ -1,0 +1,133 @@
+//! Renderer benchmark.
+//!
+//! (a) A full simulated scan (3 positions, 256 x 256, every capture plus
+//!     truth, written as a bundle) at the default sample count: wall time.
+//! (b) Render time against noise for several sample counts on one position
+//!     at 128 x 128: RMSE of the photos against a reference with 16 times
+//!     the default samples.
+//!
+//! `cargo run --release -p matscan-sim --example render_bench [seed] [threads]`
+
+use matscan_sim::render::{
+    write_scan_bundle, CaptureSpec, RenderOptions, Renderer, SimOptions, DEFAULT_SAMPLES,
+};
+use matscan_sim::scene::{generate, SceneOptions};
+use std::time::Instant;
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let seed: u64 = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(7);
+    let threads: Option<usize> = args.get(2).and_then(|s| s.parse().ok());
+    if let Some(n) = threads {
+        if let Err(e) = rayon::ThreadPoolBuilder::new().num_threads(n).build_global() {
+            eprintln!("cannot size the thread pool: {e}");
+        }
+    }
+    println!(
+        "threads: {}, default samples: {DEFAULT_SAMPLES}",
+        rayon::current_num_threads()
+    );
+
+    // (a) The full scan.
+    let scene = generate(&SceneOptions {
+        seed,
+        ..SceneOptions::default()
+    });
+    let dir = std::env::temp_dir().join(format!("matscan-render-bench-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let start = Instant::now();
+    let result = write_scan_bundle(&scene, &SimOptions::default(), &dir);
+    let secs = start.elapsed().as_secs_f64();
+    match result {
+        Ok(bundle) => println!(
+            "full scan `{}` ({}): {} positions x {} captures at {}x{} + truth: {secs:.1} s",
+            scene.name,
+            scene.kind,
+            bundle.manifest.positions.len(),
+            bundle.manifest.positions[0].captures.len(),
+            bundle.manifest.camera.width,
+            bundle.manifest.camera.height,
+        ),
+        Err(e) => println!("full scan failed after {secs:.1} s: {e}"),
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+
+    // (b) Time against noise.
+    let scene = generate(&SceneOptions {
+        seed,
+        width: 128,
+        height: 128,
+        positions: 1,
+        ..SceneOptions::default()
+    });
+    let renderer = match Renderer::new(&scene) {
+        Ok(r) => r,
+        Err(e) => {
+            println!("cannot render: {e}");
+            return;
+        }
+    };
+    let captures = [
+        CaptureSpec::new("ambient", &[], None),
+        CaptureSpec::new("flash0", &["flash0"], None),
+        CaptureSpec::new("flash1", &["flash1"], None),
+        CaptureSpec::new(
+            "projector",
+            &["projector"],
+            Some(matscan_scan::Pattern::Uniform { level: 0.5 }),
+        ),
+        CaptureSpec::new("backlight", &["backlight"], None),
+    ];
+    let render = |samples: u32, seed: u64| {
+        let opts = RenderOptions {
+            samples,
+            seed,
+            ..RenderOptions::default()
+        };
+        let start = Instant::now();
+        let images = renderer.render_position(0, &captures, &opts);
+        (images, start.elapsed().as_secs_f64())
+    };
+    let reference_samples = DEFAULT_SAMPLES * 16;
+    let (reference, ref_secs) = render(reference_samples, 1_000);
+    let Ok(reference) = reference else {
+        println!("reference render failed");
+        return;
+    };
+    println!(
+        "\none position, 128x128, {} captures; reference {reference_samples} spp ({ref_secs:.1} s)",
+        captures.len()
+    );
+    let mean: f64 = reference
+        .photos
+        .iter()
+        .flat_map(|p| p.data.iter().flatten())
+        .map(|&v| v as f64)
+        .sum::<f64>()
+        / (reference.photos.len() * 128 * 128 * 3) as f64;
+    println!("mean photo value {mean:.4}");
+    println!("{:>8} {:>10} {:>12} {:>14}", "spp", "time s", "RMSE", "RMSE / mean");
+    for samples in [4, 8, 16, 32, 64] {
+        let (images, secs) = render(samples, 1);
+        let Ok(images) = images else {
+            println!("{samples:>8} failed");
+            continue;
+        };
+        let mut sq = 0.0f64;
+        let mut n = 0usize;
+        for (a, b) in images.photos.iter().zip(&reference.photos) {
+            for (pa, pb) in a.data.iter().zip(&b.data) {
+                for c in 0..3 {
+                    let d = (pa[c] - pb[c]) as f64;
+                    sq += d * d;
+                    n += 1;
+                }
+            }
+        }
+        let rmse = (sq / n as f64).sqrt();
+        println!(
+            "{samples:>8} {secs:>10.2} {rmse:>12.5} {:>14.4}",
+            rmse / mean.max(1e-12)
+        );
+    }
+}
