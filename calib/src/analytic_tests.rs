@@ -590,3 +590,108 @@ fn cos_vl_map_uses_the_documented_pole_value() {
     assert_eq!(f64::from(got), angles::cos_vl(n, v, v));
     assert!(got.abs() < 1e-3);
 }
+
+/// The shadow scene (a sphere before a plane, one light) at scale `s`.
+fn scaled_maps(s: f32) -> crate::maps::PositionMaps {
+    let mesh = merge(&[
+        icosphere(Vec3::ZERO, 0.4 * s, 3),
+        quad(
+            Vec3::new(-3.0, -3.0, 1.0) * s,
+            Vec3::new(0.0, 6.0, 0.0) * s,
+            Vec3::new(6.0, 0.0, 0.0) * s,
+        ),
+    ]);
+    let caster = RayCaster::new(mesh);
+    let s = f64::from(s);
+    let eye = DVec3::new(0.0, 0.0, -2.0) * s;
+    let c2w = look_at(eye, DVec3::ZERO, DVec3::new(0.0, -1.0, 0.0));
+    let pos = position(
+        "p0",
+        c2w,
+        vec![point_light("l", DVec3::new(0.7, 0.2, -1.5) * s)],
+    );
+    position_maps(&caster, &intrinsics(32, 60.0), &pos)
+}
+
+#[test]
+fn maps_are_scale_invariant_from_1e_minus_3_to_1e3() {
+    let unit = scaled_maps(1.0);
+    for s in [1e-3f32, 1e3] {
+        let m = scaled_maps(s);
+        let (g, u) = (&m.geometry, &unit.geometry);
+        assert_eq!(g.mask, u.mask);
+        for i in 0..g.mask.data.len() {
+            assert!((g.depth.data[i] / s - u.depth.data[i]).abs() < 1e-4);
+            assert!((g.cos_nv.data[i] - u.cos_nv.data[i]).abs() < 1e-4);
+            let (a, b) = (&m.lights[0], &unit.lights[0]);
+            assert!((a.cos_nl.data[i] - b.cos_nl.data[i]).abs() < 1e-4);
+            assert!((a.distance.data[i] / s - b.distance.data[i]).abs() < 1e-4);
+            assert!(a.cos_vl.data[i].is_finite());
+        }
+        let differ = m.lights[0]
+            .lit
+            .data
+            .iter()
+            .zip(&unit.lights[0].lit.data)
+            .filter(|(a, b)| a != b)
+            .count();
+        assert!(differ <= 2, "scale {s}: {differ} shadow pixels differ");
+    }
+}
+
+mod finite {
+    use super::*;
+    use crate::synthetic::blob;
+    use proptest::prelude::*;
+
+    fn blob_caster() -> &'static RayCaster {
+        static CASTER: OnceLock<RayCaster> = OnceLock::new();
+        CASTER.get_or_init(|| {
+            let mut mesh = blob(Vec3::ZERO, 0.5, 0.15, 3);
+            // Some zero-length vertex normals too.
+            if let Some(n) = mesh.normals.as_mut() {
+                n.iter_mut().step_by(7).for_each(|v| *v = Vec3::ZERO);
+            }
+            RayCaster::new(mesh)
+        })
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(24))]
+        #[test]
+        fn every_map_is_finite_for_any_pose_and_light(
+            eye in prop::array::uniform3(-3.0f64..3.0),
+            light in prop::array::uniform3(-1.0f64..1.0),
+            k1 in -0.2f64..0.2,
+        ) {
+            let eye = DVec3::from(eye);
+            prop_assume!(eye.length() > 0.9);
+            let up = if eye.cross(DVec3::Y).length() > 1e-3 { DVec3::Y } else { DVec3::X };
+            let c2w = look_at(eye, DVec3::ZERO, up);
+            let mut intr = intrinsics(16, 60.0);
+            intr.distortion[0] = k1;
+            let pos = position("p", c2w, vec![
+                point_light("free", DVec3::from(light) * 2.0),
+                point_light("at_eye", eye),
+                point_light("on_surface", blob_caster().mesh.positions[3].as_dvec3()),
+            ]);
+            let m = position_maps(blob_caster(), &intr, &pos);
+            let g = &m.geometry;
+            for r in [&g.position, &g.normal, &g.geometric_normal, &g.view] {
+                prop_assert!(all_finite(r));
+            }
+            for v in g.depth.data.iter().chain(&g.cos_nv.data) {
+                prop_assert!(v.is_finite());
+            }
+            for l in &m.lights {
+                prop_assert!(all_finite(&l.direction));
+                for v in l.distance.data.iter().chain(&l.cos_nl.data).chain(&l.cos_vl.data) {
+                    prop_assert!(v.is_finite());
+                }
+                for (c, _) in l.cos_nl.data.iter().zip(&l.lit.data).filter(|(_, &lit)| lit) {
+                    prop_assert!(*c > 0.0);
+                }
+            }
+        }
+    }
+}

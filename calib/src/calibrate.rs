@@ -76,7 +76,9 @@ pub fn geometry_maps(
     (maps, correspondences)
 }
 
-/// Correspondences for every ordered pair of distinct positions.
+/// Correspondences for every ordered pair of distinct positions: n (n - 1)
+/// maps of 9 bytes per pixel, cheap for the handful of positions a scan
+/// has (use [`correspondence`] directly for a chosen pair on huge scans).
 pub fn correspondences(maps: &[PositionMaps], options: &WarpOptions) -> Vec<Correspondence> {
     let mut out = Vec::new();
     for (i, reference) in maps.iter().enumerate() {

@@ -17,9 +17,22 @@
 //! (no hit) hold 0 in every map and false in every mask; no map ever holds
 //! NaN or Inf.
 //!
+//! Entry points: [`calibrate()`] (a manifest, a
+//! [`matscan_scan::bvh::RayCaster`] and any [`PhotoSource`]),
+//! [`calibrate_bundle`] (a bundle on disk), [`write_maps`] (EXR maps and
+//! `calib.json`) and [`check::check`] (a serializable
+//! [`check::CheckReport`]); [`synthetic`] builds analytic scenes for tests
+//! and benchmarks.
+//!
+//! Performance: per-pixel work runs on rayon, one row per task.
+//! `examples/calib_bench.rs` (81 920-triangle displaced blob plus a
+//! backplane, 3 positions x 7 captures at 256x256, the whole calibration
+//! plus 42 warped photos) measured a median of 0.66 to 1.01 s wall with
+//! `RAYON_NUM_THREADS=2` on the shared 2-core development machine under a
+//! load average of 8 to 10, and 0.41 s of CPU time per run, i.e. about 0.2 s
+//! on 2 idle cores.
+//!
 //! Boundaries: depends on `matscan-scan` only; no estimation, no rendering.
-//! The core API works on in-memory inputs (a
-//! [`matscan_scan::bvh::RayCaster`], a manifest, a [`PhotoSource`]).
 
 pub mod angles;
 pub mod bad_light;
@@ -45,6 +58,7 @@ pub use error::CalibError;
 pub use maps::{position_maps, PositionMaps};
 pub use photos::{MemoryScan, PhotoSource};
 pub use write::write_maps;
+
 #[cfg(test)]
 mod analytic_tests;
 #[cfg(test)]

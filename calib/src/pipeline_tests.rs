@@ -212,3 +212,39 @@ fn writes_every_map_as_exr_and_a_summary() {
     assert_eq!(json["positions"].as_array().unwrap().len(), 3);
     assert_eq!(json["correspondences"].as_array().unwrap().len(), 6);
 }
+
+#[test]
+fn calibrates_a_bundle_on_disk_like_the_same_scan_in_memory() {
+    use matscan_scan::bundle::BundleWriter;
+    use matscan_scan::image_io::Precision;
+    let manifest = scan_manifest();
+    let caster = sphere();
+    let scan = render(&manifest, &caster);
+    let dir = tempfile::tempdir().unwrap();
+    let writer = BundleWriter::create(dir.path().join("scan")).unwrap();
+    writer.write_mesh(&caster.mesh).unwrap();
+    for ((position, capture), photo) in &scan.photos {
+        writer
+            .write_photo(position, capture, photo, Precision::Float)
+            .unwrap();
+    }
+    let bundle = writer.finish(&manifest).unwrap();
+    let from_disk = crate::calibrate::calibrate_bundle(&bundle, &CalibOptions::default()).unwrap();
+    let in_memory = calibrate(&manifest, &caster, &scan, &CalibOptions::default()).unwrap();
+    for (a, b) in from_disk.positions.iter().zip(&in_memory.positions) {
+        assert_eq!(a.maps, b.maps);
+        assert_eq!(
+            a.light_response.as_ref().unwrap(),
+            b.light_response.as_ref().unwrap()
+        );
+        assert_eq!(a.bad_light, b.bad_light);
+    }
+    let report = check(
+        &bundle.manifest,
+        &from_disk,
+        &bundle,
+        &CheckOptions::default(),
+    )
+    .unwrap();
+    assert!(report.passed(), "{:?}", report.problems);
+}

@@ -53,13 +53,11 @@ pub struct Correspondence {
     /// Object pixel of the reference that the other position sees too: the
     /// thesis's "mapped mask".
     pub valid: MaskRaster,
-    /// Bilinear taps (x0, y0) and weights (fx, fy) per valid pixel.
-    taps: Raster<Tap>,
     /// Width and height of the other position's images.
     other_size: (u32, u32),
 }
 
-#[derive(Clone, Copy, Default, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 struct Tap {
     x0: u32,
     y0: u32,
@@ -133,25 +131,36 @@ pub fn correspondence(
         }
         let p = to_f64(g.position.get(x, y));
         let q = other.camera.project(p)?;
-        let tap = Tap::at(q.x, q.y, ow, oh)?;
+        // Validated on the stored (f32) coordinates so that resampling,
+        // which derives its taps from them, uses exactly the checked taps.
+        let q = [q.x as f32, q.y as f32];
+        let tap = Tap::at(q[0].into(), q[1].into(), ow, oh)?;
         if !tap.corners().iter().all(|&(x, y, _)| *og.mask.get(x, y)) {
             return None;
         }
         let z = other.camera.depth(p);
         let seen = f64::from(tap.sample_scalar(&og.depth));
-        ((seen - z).abs() <= options.depth_tolerance * z.abs()).then_some((q, tap))
+        ((seen - z).abs() <= options.depth_tolerance * z.abs()).then_some(q)
     });
     Correspondence {
         reference: reference.position.clone(),
         other: other.position.clone(),
-        coords: per_pixel.map(|m| m.map_or([0.0, 0.0], |(q, _)| [q.x as f32, q.y as f32])),
+        coords: per_pixel.map(|m| m.unwrap_or([0.0, 0.0])),
         valid: per_pixel.map(Option::is_some),
-        taps: per_pixel.map(|m| m.map_or(Tap::default(), |(_, t)| t)),
         other_size: (ow, oh),
     }
 }
 
 impl Correspondence {
+    /// The bilinear taps of a valid pixel.
+    fn tap(&self, x: u32, y: u32) -> Option<Tap> {
+        if !*self.valid.get(x, y) {
+            return None;
+        }
+        let [u, v] = *self.coords.get(x, y);
+        Tap::at(u.into(), v.into(), self.other_size.0, self.other_size.1)
+    }
+
     /// Number of valid (matched) pixels.
     pub fn valid_pixels(&self) -> usize {
         self.valid.data.iter().filter(|&&v| v).count()
@@ -178,11 +187,7 @@ impl Correspondence {
     pub fn warp_rgb(&self, photo: &RgbRaster, capture: &str) -> Result<RgbRaster, CalibError> {
         self.check_size(photo.width, photo.height, capture)?;
         Ok(par_raster(self.valid.width, self.valid.height, |x, y| {
-            if *self.valid.get(x, y) {
-                self.taps.get(x, y).sample_rgb(photo)
-            } else {
-                [0.0; 3]
-            }
+            self.tap(x, y).map_or([0.0; 3], |t| t.sample_rgb(photo))
         }))
     }
 
@@ -191,11 +196,7 @@ impl Correspondence {
     pub fn warp_scalar(&self, map: &ScalarRaster, name: &str) -> Result<ScalarRaster, CalibError> {
         self.check_size(map.width, map.height, name)?;
         Ok(par_raster(self.valid.width, self.valid.height, |x, y| {
-            if *self.valid.get(x, y) {
-                self.taps.get(x, y).sample_scalar(map)
-            } else {
-                0.0
-            }
+            self.tap(x, y).map_or(0.0, |t| t.sample_scalar(map))
         }))
     }
 }

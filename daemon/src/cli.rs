@@ -3,6 +3,7 @@
 use anyhow::{bail, Context, Result};
 use clap::{Args, Parser, Subcommand};
 use matscan_sim::render::SimOptions;
+use matscan_sim::scene::geometry::{UserMesh, UvProjection};
 use matscan_sim::scene::{GeometryKind, GeometrySource, SceneKind, SceneOptions};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -27,6 +28,10 @@ pub enum Command {
     /// Render a simulated scan bundle (or a dataset of them) with the
     /// built-in path tracer.
     Simulate(SimulateArgs),
+    /// Write a bundle's calibration maps (float EXR, one folder per
+    /// position), or `calib check SCAN` to check its calibration.
+    #[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
+    Calib(CalibArgs),
     /// Draw a contact sheet of a scan bundle: captures, mask, truth and
     /// estimates where present.
     Sheet(SheetArgs),
@@ -74,6 +79,33 @@ pub struct SimulateArgs {
 }
 
 #[derive(Debug, Args)]
+pub struct CalibArgs {
+    #[command(subcommand)]
+    pub action: Option<CalibAction>,
+    /// The scan bundle folder.
+    #[arg(required = true)]
+    pub scan: Option<PathBuf>,
+    /// Output folder (default: SCAN/calib).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum CalibAction {
+    /// Validate the calibration against the photos: silhouette IoU of the
+    /// projected mesh against the object in the photos, light positions
+    /// against the shading, and a verdict per position. Exits 2 when a
+    /// check fails.
+    Check {
+        /// The scan bundle folder.
+        scan: PathBuf,
+        /// Print one JSON object with the per-position figures.
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+#[derive(Debug, Args)]
 pub struct SheetArgs {
     /// The scan bundle folder.
     pub scan: PathBuf,
@@ -95,6 +127,20 @@ pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Demo(a) => demo(a),
         Command::Simulate(a) => simulate(a),
+        Command::Calib(a) => match (a.action, a.scan) {
+            (Some(CalibAction::Check { scan, json }), _) => {
+                if crate::calib_cmd::run_check(&scan, json)? {
+                    Ok(())
+                } else {
+                    std::process::exit(2)
+                }
+            }
+            (None, Some(scan)) => {
+                let out = a.out.unwrap_or_else(|| scan.join("calib"));
+                crate::calib_cmd::write(&scan, &out)
+            }
+            (None, None) => bail!("give a scan folder: matscan calib SCAN"),
+        },
         Command::Sheet(a) => {
             let out = a.out.unwrap_or_else(|| a.scan.join("sheet.png"));
             crate::sheet::draw_contact_sheet(&a.scan, &out)?;
@@ -116,6 +162,8 @@ fn scene_options(a: &SceneArgs) -> Result<(SceneOptions, SimOptions)> {
             Err(_) if Path::new(name).exists() => {
                 let mesh = matscan_scan::mesh_io::read_mesh(Path::new(name))
                     .with_context(|| format!("--geometry {name}"))?;
+                let mesh = UserMesh::new(mesh, UvProjection::default())
+                    .with_context(|| format!("--geometry {name}"))?;
                 GeometrySource::Mesh(mesh)
             }
             Err(e) => bail!("--geometry {name}: {e}, and no such mesh file exists"),
@@ -127,10 +175,15 @@ fn scene_options(a: &SceneArgs) -> Result<(SceneOptions, SimOptions)> {
     if a.positions == 0 {
         bail!("--positions 0: expected at least one position");
     }
-    let mut options = SceneOptions::new(a.seed, kind, geometry);
-    options.width = a.size;
-    options.height = a.size;
-    options.positions = a.positions;
+    let options = SceneOptions {
+        seed: a.seed,
+        kind,
+        geometry,
+        width: a.size,
+        height: a.size,
+        positions: a.positions,
+        ..SceneOptions::default()
+    };
     let mut sim = SimOptions {
         seed: a.seed,
         ..SimOptions::default()

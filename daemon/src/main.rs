@@ -9,6 +9,7 @@
 //! for progress bars on long runs; `tracing-subscriber` for logs on stderr
 //! (`RUST_LOG` selects the level).
 
+mod calib_cmd;
 mod cli;
 mod font;
 mod sheet;

@@ -24,7 +24,7 @@ struct Tile {
     rgb: Vec<f32>,
 }
 
-const LABEL_H: u32 = 12;
+const LABEL_H: u32 = font::GLYPH_H + 5;
 const GAP: u32 = 4;
 const MAX_TILE: u32 = 192;
 

@@ -9,7 +9,7 @@
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use matscan_sim::render::{write_scan_bundle, SimOptions};
-use matscan_sim::scene::{generate, GeometrySource, SceneOptions};
+use matscan_sim::scene::{generate, SceneOptions};
 use std::path::Path;
 use std::time::Instant;
 
@@ -46,9 +46,6 @@ pub fn simulate_dataset(
         } else {
             let mut options = base.clone();
             options.seed = seed;
-            if matches!(base.geometry, GeometrySource::Random) {
-                options.geometry = GeometrySource::Random;
-            }
             simulate_one(&options, sim, &out)?;
         }
         bar.inc(1);

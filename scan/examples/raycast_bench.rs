@@ -55,8 +55,14 @@ fn main() {
         })
         .collect();
 
-    let primary_hits = primary.iter().filter(|r| caster.bvh.intersect(r).is_some()).count();
-    let random_hits = random.iter().filter(|r| caster.bvh.intersect(r).is_some()).count();
+    let primary_hits = primary
+        .iter()
+        .filter(|r| caster.bvh.intersect(r).is_some())
+        .count();
+    let random_hits = random
+        .iter()
+        .filter(|r| caster.bvh.intersect(r).is_some())
+        .count();
     println!(
         "primary: {} rays ({:.0}% hit); random: {} rays ({:.0}% hit); shadow: {} rays",
         primary.len(),
@@ -77,7 +83,11 @@ fn main() {
         format!("{threads} threads wall")
     );
     for (name, rays, query) in [
-        ("primary closest", &primary, &closest as &(dyn Fn(&[Ray]) -> usize + Sync)),
+        (
+            "primary closest",
+            &primary,
+            &closest as &(dyn Fn(&[Ray]) -> usize + Sync),
+        ),
         ("random closest", &random, &closest),
         ("shadow occluded", &shadow, &occluded),
         ("random occluded", &random, &occluded),
@@ -245,7 +255,11 @@ fn primary_rays(width: usize, height: usize) -> Vec<Ray> {
 fn random_rays(count: usize, seed: u64) -> Vec<Ray> {
     let mut rng = Pcg64::seed_from_u64(seed);
     let unit = |rng: &mut Pcg64| loop {
-        let p = Vec3::new(rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0));
+        let p = Vec3::new(
+            rng.gen_range(-1.0..1.0),
+            rng.gen_range(-1.0..1.0),
+            rng.gen_range(-1.0..1.0),
+        );
         if p.length_squared() <= 1.0 && p.length_squared() > 1e-6 {
             return p;
         }

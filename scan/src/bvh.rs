@@ -248,9 +248,9 @@ impl Bvh {
         }
         let tris = refs.iter().map(|r| tris_by_id[r.id as usize]).collect();
         let ids = refs.iter().map(|r| r.id).collect();
-        let magnitude = pairs
-            .first()
-            .map_or(0.0, |p| p.0[0].min.abs().max(p.0[0].max.abs()).max_element());
+        let magnitude = pairs.first().map_or(0.0, |p| {
+            p.0[0].min.abs().max(p.0[0].max.abs()).max_element()
+        });
         Self {
             pairs,
             tris,
@@ -560,8 +560,7 @@ impl Prepared {
         };
         let kx = (kz + 1) % 3;
         let ky = (kx + 1) % 3;
-        let slack =
-            BOX_SLACK_ULPS * f32::EPSILON * (ray.origin.abs().max_element() + magnitude);
+        let slack = BOX_SLACK_ULPS * f32::EPSILON * (ray.origin.abs().max_element() + magnitude);
         let axis = |k: usize, scale: f32| {
             let mut v = Vec3::ZERO;
             v[k] = 1.0;
@@ -630,7 +629,11 @@ impl Prepared {
         if det == 0.0 || !det.is_finite() {
             return None;
         }
-        let (az, bz, cz) = (self.shear_z.dot(a), self.shear_z.dot(b), self.shear_z.dot(c));
+        let (az, bz, cz) = (
+            self.shear_z.dot(a),
+            self.shear_z.dot(b),
+            self.shear_z.dot(c),
+        );
         let t_scaled = self.sz * (u * az + v * bz + w * cz);
         let inv = 1.0 / det;
         let t = t_scaled * inv;
@@ -694,9 +697,9 @@ impl RayCaster {
 
     /// Largest absolute coordinate of the scene (0 when empty).
     pub fn magnitude(&self) -> f32 {
-        self.bvh.bounds().map_or(0.0, |(lo, hi)| {
-            lo.abs().max(hi.abs()).max_element()
-        })
+        self.bvh
+            .bounds()
+            .map_or(0.0, |(lo, hi)| lo.abs().max(hi.abs()).max_element())
     }
 
     /// `p` moved off the surface along `n` by an offset scaled to the

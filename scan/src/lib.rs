@@ -30,7 +30,8 @@ pub mod mesh_io;
 pub mod param;
 pub mod raster;
 
-pub use bundle::{Bundle, TruthMap};
+pub use bundle::{Bundle, BundleWriter, TruthImage, TruthKind, TruthMap};
+pub use image_io::Precision;
 pub use bvh::{Bvh, Hit, Ray};
 pub use camera::{Intrinsics, PinholeCamera};
 pub use error::ScanError;

@@ -143,12 +143,7 @@ impl Mesh {
         if let Some(vertex) = self.positions.iter().position(|p| !p.is_finite()) {
             return Err(MeshDefect::NonFinitePosition { vertex });
         }
-        if let Some(vertex) = self
-            .normals
-            .iter()
-            .flatten()
-            .position(|n| !n.is_finite())
-        {
+        if let Some(vertex) = self.normals.iter().flatten().position(|n| !n.is_finite()) {
             return Err(MeshDefect::NonFiniteNormal { vertex });
         }
         if let Some(vertex) = self.uvs.iter().flatten().position(|t| !t.is_finite()) {

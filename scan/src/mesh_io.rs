@@ -16,19 +16,21 @@
 //! and the line (OBJ, ASCII PLY) or element (binary PLY) and what was
 //! expected. Malformed input is an error, never a panic.
 //!
-//! Writing is atomic (temporary file in the same folder, then rename): PLY
+//! Writing is atomic ([`crate::atomic::write_atomic`]: temporary file in
+//! the same folder, then rename): PLY
 //! as binary little endian with normals and `s t` coordinates when present,
 //! OBJ as text with exact (shortest round-trip) decimal numbers.
 //!
 //! Boundaries: files only; the mesh type and its checks live in
 //! [`crate::mesh`].
 
+use crate::atomic::write_atomic;
 use crate::error::ScanError;
 use crate::mesh::Mesh;
 use glam::{Vec2, Vec3};
 use std::collections::HashMap;
 use std::fs;
-use std::io::{Read, Write};
+use std::io::Read;
 use std::path::Path;
 
 /// Reads a `.ply` or `.obj` mesh (extension compared case-insensitively).
@@ -80,9 +82,7 @@ pub fn read_obj<R: Read>(mut reader: R, path: &Path) -> Result<Mesh, ScanError> 
 /// when the mesh has them, faces as `list uchar uint vertex_indices`.
 pub fn write_ply(path: &Path, mesh: &Mesh) -> Result<(), ScanError> {
     check_writable(path, mesh)?;
-    let mut out = Vec::with_capacity(
-        256 + mesh.positions.len() * 32 + mesh.triangles.len() * 13,
-    );
+    let mut out = Vec::with_capacity(256 + mesh.positions.len() * 32 + mesh.triangles.len() * 13);
     let mut header = format!(
         "ply\nformat binary_little_endian 1.0\ncomment written by matscan\nelement vertex {}\n\
          property float x\nproperty float y\nproperty float z\n",
@@ -186,34 +186,6 @@ fn format_error(path: &Path, message: String) -> ScanError {
 fn check_writable(path: &Path, mesh: &Mesh) -> Result<(), ScanError> {
     mesh.validate()
         .map_err(|d| format_error(path, format!("refusing to write an invalid mesh: {d}")))
-}
-
-/// Writes `bytes` to a temporary name in the same folder, then renames it
-/// over `path`, so a reader never sees a half-written mesh.
-fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), ScanError> {
-    let io_error = |source| ScanError::Io {
-        path: path.to_path_buf(),
-        source,
-    };
-    let name = path
-        .file_name()
-        .ok_or_else(|| format_error(path, "expected a file path, not a folder".to_string()))?;
-    let tmp = path.with_file_name(format!(
-        ".{}.tmp-{}",
-        name.to_string_lossy(),
-        std::process::id()
-    ));
-    let written = fs::File::create(&tmp).and_then(|mut f| {
-        f.write_all(bytes)?;
-        f.sync_all()
-    });
-    if let Err(e) = written.and_then(|()| fs::rename(&tmp, path)) {
-        // Best effort: the temporary may not exist; the original error is
-        // what the caller needs.
-        let _ = fs::remove_file(&tmp);
-        return Err(io_error(e));
-    }
-    Ok(())
 }
 
 // ---------------------------------------------------------------- PLY ----
@@ -368,9 +340,8 @@ fn parse_ply_header(bytes: &[u8], path: &Path) -> Result<PlyHeader, ScanError> {
                     return Err(err(line_no, "property before any element".to_string()));
                 };
                 let scalar = |name: &str| {
-                    Scalar::parse(name).ok_or_else(|| {
-                        err(line_no, format!("unknown PLY property type `{name}`"))
-                    })
+                    Scalar::parse(name)
+                        .ok_or_else(|| err(line_no, format!("unknown PLY property type `{name}`")))
                 };
                 let property = match rest {
                     ["list", count, item, name] => {
@@ -401,12 +372,7 @@ fn parse_ply_header(bytes: &[u8], path: &Path) -> Result<PlyHeader, ScanError> {
                 element.properties.push(property);
             }
             ["end_header"] => break,
-            _ => {
-                return Err(err(
-                    line_no,
-                    format!("unexpected PLY header line `{line}`"),
-                ))
-            }
+            _ => return Err(err(line_no, format!("unexpected PLY header line `{line}`"))),
         }
     }
     let encoding = encoding
@@ -614,14 +580,20 @@ fn read_ply_elements(
 ) -> Result<Mesh, ScanError> {
     let vertex_element = header.elements.iter().find(|e| e.name == "vertex");
     let Some(vertex_element) = vertex_element else {
-        return Err(format_error(path, "PLY has no `vertex` element".to_string()));
+        return Err(format_error(
+            path,
+            "PLY has no `vertex` element".to_string(),
+        ));
     };
     let layout = VertexLayout::find(vertex_element, path)?;
     let vertex_count = vertex_element.count;
     if u32::try_from(vertex_count).is_err() {
         return Err(format_error(
             path,
-            format!("element vertex: {vertex_count} vertices, expected at most {}", u32::MAX),
+            format!(
+                "element vertex: {vertex_count} vertices, expected at most {}",
+                u32::MAX
+            ),
         ));
     }
     let cap = vertex_count.min(max_items);
@@ -646,6 +618,10 @@ fn read_ply_elements(
             }
             _ => Role::Skip,
         };
+        if element.properties.is_empty() {
+            // Nothing to read, however large the count.
+            continue;
+        }
         for index in 0..element.count {
             let fail = |body: &dyn PlyBody, property: &str, fault: BodyFault| {
                 let what = match fault {
@@ -728,10 +704,7 @@ fn read_ply_elements(
                 let bad = |what: &str| {
                     format_error(
                         path,
-                        format!(
-                            "{}: element vertex {index}: {what}",
-                            body.locate()
-                        ),
+                        format!("{}: element vertex {index}: {what}", body.locate()),
                     )
                 };
                 if !p.is_finite() {
@@ -863,7 +836,10 @@ fn parse_obj(bytes: &[u8], path: &Path) -> Result<Mesh, ScanError> {
                 })
                 .collect::<Result<_, _>>()?;
             if vals.len() < min {
-                return Err(err(format!("{what}: expected {min} numbers, found {}", vals.len())));
+                return Err(err(format!(
+                    "{what}: expected {min} numbers, found {}",
+                    vals.len()
+                )));
             }
             if vals.iter().any(|v| !v.is_finite()) {
                 return Err(err(format!("{what}: expected finite numbers")));
@@ -887,11 +863,8 @@ fn parse_obj(bytes: &[u8], path: &Path) -> Result<Mesh, ScanError> {
             "f" => {
                 let first = corners.len();
                 for word in words {
-                    let corner = parse_corner(
-                        word,
-                        [positions.len(), uvs.len(), normals.len()],
-                    )
-                    .map_err(|msg| err(format!("face corner `{word}`: {msg}")))?;
+                    let corner = parse_corner(word, [positions.len(), uvs.len(), normals.len()])
+                        .map_err(|msg| err(format!("face corner `{word}`: {msg}")))?;
                     corners.push(corner);
                 }
                 let n = corners.len() - first;

@@ -58,7 +58,7 @@ fn random_soup(rng: &mut Pcg64, count: usize) -> Mesh {
         let a = centre + unit_vector(rng) * size;
         let b = centre + unit_vector(rng) * size;
         let c = match i % 17 {
-            0 => a,                   // repeated vertex
+            0 => a,                  // repeated vertex
             1 => a + (b - a) * 0.25, // collinear
             _ => centre + unit_vector(rng) * size,
         };
@@ -136,7 +136,11 @@ fn assert_same_hit(mesh: &Mesh, bvh: &Bvh, ray: &Ray) {
         }
         _ => panic!("BVH {got:?} but brute force {expected:?} for {ray:?}"),
     }
-    assert_eq!(bvh.occluded(ray), expected.is_some(), "occluded for {ray:?}");
+    assert_eq!(
+        bvh.occluded(ray),
+        expected.is_some(),
+        "occluded for {ray:?}"
+    );
 }
 
 #[test]
@@ -163,7 +167,11 @@ fn uv_sphere(centre: Vec3, radius: f32, rings: u32, segments: u32) -> Mesh {
         let theta = std::f32::consts::PI * r as f32 / rings as f32;
         for s in 0..segments {
             let phi = std::f32::consts::TAU * s as f32 / segments as f32;
-            let d = Vec3::new(theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos());
+            let d = Vec3::new(
+                theta.sin() * phi.cos(),
+                theta.sin() * phi.sin(),
+                theta.cos(),
+            );
             positions.push(centre + d * radius);
         }
     }
@@ -218,7 +226,11 @@ fn triangle_test_matches_a_double_precision_reference() {
                 // t and the barycentrics are ill-conditioned at grazing
                 // incidence: the tolerance grows with 1 / sin(elevation).
                 let [a, b, c] = tri.map(|p| p.as_dvec3());
-                let sin = (b - a).cross(c - a).normalize().dot(ray.dir.as_dvec3()).abs();
+                let sin = (b - a)
+                    .cross(c - a)
+                    .normalize()
+                    .dot(ray.dir.as_dvec3())
+                    .abs();
                 let tol = 2e-6 / sin.max(1e-3);
                 assert!((f64::from(t) - rt).abs() <= tol * rt, "t {t} vs {rt}");
                 assert!((f64::from(u) - ru).abs() < 10.0 * tol);
@@ -229,7 +241,10 @@ fn triangle_test_matches_a_double_precision_reference() {
             (Some(_), None) | (None, Some(_)) => {
                 // Only rays that pass within rounding of an edge may differ.
                 let margin = reference.map_or_else(|| edge_margin(&ray, &tri), |r| r.3);
-                assert!(margin < 1e-5, "disagreement {got:?} vs {reference:?}, margin {margin}");
+                assert!(
+                    margin < 1e-5,
+                    "disagreement {got:?} vs {reference:?}, margin {margin}"
+                );
             }
         }
     }
@@ -288,10 +303,16 @@ fn rays_through_shared_edges_and_vertices_of_a_closed_mesh_always_hit() {
         for target in targets {
             let ray = Ray::new(inside, (target - inside).normalize());
             let hit = bvh.intersect(&ray);
-            assert!(hit.is_some(), "ray through {target} escaped (scale {radius})");
+            assert!(
+                hit.is_some(),
+                "ray through {target} escaped (scale {radius})"
+            );
             let t = hit.map(|h| h.t).unwrap_or(0.0);
             let expected = (target - inside).length();
-            assert!((t - expected).abs() < 1e-3 * expected, "t {t} vs {expected}");
+            assert!(
+                (t - expected).abs() < 1e-3 * expected,
+                "t {t} vs {expected}"
+            );
         }
     }
 }
@@ -475,7 +496,10 @@ fn empty_degenerate_and_invalid_input_is_handled() {
     };
     let bvh = Bvh::build(&degenerate);
     assert_eq!(bvh.bounds(), None);
-    assert_eq!(bvh.intersect(&Ray::new(Vec3::new(0.5, -1.0, 0.0), Vec3::Y)), None);
+    assert_eq!(
+        bvh.intersect(&Ray::new(Vec3::new(0.5, -1.0, 0.0), Vec3::Y)),
+        None
+    );
 
     let mesh = uv_sphere(Vec3::ZERO, 1.0, 8, 8);
     let bvh = Bvh::build(&mesh);
@@ -486,7 +510,10 @@ fn empty_degenerate_and_invalid_input_is_handled() {
         Ray::new(Vec3::NAN, Vec3::Z),
         Ray::new(Vec3::new(0.0, 0.0, -3.0), Vec3::ZERO),
         Ray::new(Vec3::new(0.0, 0.0, -3.0), Vec3::new(f32::NAN, 0.0, 1.0)),
-        Ray::new(Vec3::new(0.0, 0.0, -3.0), Vec3::new(f32::INFINITY, 0.0, 1.0)),
+        Ray::new(
+            Vec3::new(0.0, 0.0, -3.0),
+            Vec3::new(f32::INFINITY, 0.0, 1.0),
+        ),
         Ray::segment(Vec3::new(0.0, 0.0, -3.0), Vec3::Z, f32::NAN, 10.0),
         Ray::segment(Vec3::new(0.0, 0.0, -3.0), Vec3::Z, 5.0, 1.0),
     ] {
@@ -512,7 +539,11 @@ fn pathological_triangle_distributions_build_and_match_brute_force() {
     let mut triangles = Vec::new();
     for i in 0..2000u32 {
         let x = 0.97f32.powi(i as i32);
-        positions.extend([Vec3::new(x, 0.0, 0.0), Vec3::new(x, 1.0, 0.0), Vec3::new(x, 0.0, 1.0)]);
+        positions.extend([
+            Vec3::new(x, 0.0, 0.0),
+            Vec3::new(x, 1.0, 0.0),
+            Vec3::new(x, 0.0, 1.0),
+        ]);
         triangles.push([3 * i, 3 * i + 1, 3 * i + 2]);
     }
     let deep = Mesh {

@@ -106,28 +106,42 @@ fn main() {
         .sum::<f64>()
         / (reference.photos.len() * 128 * 128 * 3) as f64;
     println!("mean photo value {mean:.4}");
-    println!("{:>8} {:>10} {:>12} {:>14}", "spp", "time s", "RMSE", "RMSE / mean");
+    let names: Vec<&str> = captures.iter().map(|c| c.name.as_str()).collect();
+    println!(
+        "{:>6} {:>8} {:>10} {:>11}   relative RMSE per capture: {}",
+        "spp",
+        "time s",
+        "RMSE",
+        "RMSE/mean",
+        names.join(" ")
+    );
     for samples in [4, 8, 16, 32, 64] {
         let (images, secs) = render(samples, 1);
         let Ok(images) = images else {
-            println!("{samples:>8} failed");
+            println!("{samples:>6} failed");
             continue;
         };
-        let mut sq = 0.0f64;
-        let mut n = 0usize;
+        let (mut sq, mut n) = (0.0f64, 0usize);
+        let mut per_capture = Vec::new();
         for (a, b) in images.photos.iter().zip(&reference.photos) {
+            let (mut csq, mut cmean) = (0.0f64, 0.0f64);
             for (pa, pb) in a.data.iter().zip(&b.data) {
                 for c in 0..3 {
                     let d = (pa[c] - pb[c]) as f64;
-                    sq += d * d;
-                    n += 1;
+                    csq += d * d;
+                    cmean += pb[c] as f64;
                 }
             }
+            let m = (a.data.len() * 3) as f64;
+            per_capture.push(format!("{:.3}", (csq / m).sqrt() / (cmean / m).max(1e-12)));
+            sq += csq;
+            n += a.data.len() * 3;
         }
         let rmse = (sq / n as f64).sqrt();
         println!(
-            "{samples:>8} {secs:>10.2} {rmse:>12.5} {:>14.4}",
-            rmse / mean.max(1e-12)
+            "{samples:>6} {secs:>8.2} {rmse:>10.5} {:>11.4}   {}",
+            rmse / mean.max(1e-12),
+            per_capture.join(" ")
         );
     }
 }

@@ -11,7 +11,7 @@
 //! With the sanitized inputs, `final_transmission = transmission (1 -
 //! metallic)` (thesis eq. 3.5):
 //! - **diffuse**: weight `(1 - metallic)(1 - transmission)` × mixed base
-//!   colour, Burley diffuse with retro-reflection ([`diffuse`]). The mixed
+//!   colour, Burley diffuse with retro-reflection (module `diffuse`). The mixed
 //!   subsurface base colour (thesis eq. 3.14) equals the base colour because
 //!   the simulated rig sets subsurface colour = base colour.
 //! - **subsurface**: as in Cycles 2.9x, *any* `subsurface` > 1e-5 sends the
@@ -24,10 +24,10 @@
 //! - **specular**: weight `1 - final_transmission`, GGX reflection with
 //!   alpha = roughness², Fresnel = Cycles' principled blend from
 //!   `cspec0 = 0.04 (1 - metallic) + basecolor × metallic` to white, driven
-//!   by the dielectric Fresnel of IOR 1.5 (= specular 0.5) ([`specular`]).
+//!   by the dielectric Fresnel of IOR 1.5 (= specular 0.5) (module `specular`).
 //! - **transmission**: weight `final_transmission`, rough dielectric with
 //!   IOR 1.45, same roughness, reflection white, refraction tinted by the
-//!   base colour ([`glass`]).
+//!   base colour (module `glass`).
 //!
 //! The lobes are added, not layered: that is Cycles 2.9x's principled BSDF,
 //! and it is not energy conserving for dielectrics. Burley diffuse alone
@@ -43,7 +43,7 @@
 //! Kulla-Conty (2017) compensation lobe
 //! `F_ms (1 - E(μo))(1 - E(μi)) / (π (1 - E_avg))`, with
 //! `F_ms = F_avg² E_avg / (1 - F_avg (1 - E_avg))`, where E is the
-//! directional albedo table integrated in code on first use ([`energy`]).
+//! directional albedo table integrated in code on first use (module `energy`).
 //! It is reciprocal and makes a white metal reflect 1 at every roughness
 //! (measured 0.998..1.002). The glass lobe is single-scattering Walter et al.
 //! divided by its white directional albedo E(μo) (tabulated per side of the
@@ -65,8 +65,10 @@
 //! `sample` picks one lobe with probability proportional to its estimated
 //! albedo seen from `wo` (Cycles' closure sample weights: mean weight for
 //! diffuse and subsurface, mean Fresnel at the normal for specular, Fresnel
-//! white + transmitted tint for glass), samples it (cosine for diffuse,
-//! visible normals for GGX, microfacet Fresnel choice for glass), then
+//! white + transmitted tint for glass), samples it (cosine for diffuse;
+//! visible normals for GGX, mixed with a cosine share 1 - E(μo) for the
+//! specular's multiple-scattering part; microfacet Fresnel choice between
+//! reflection and refraction for glass), then
 //! returns `weight = Σ f cos / Σ p_lobe pdf_lobe` over all non-delta lobes
 //! (one-sample MIS, as Cycles' `shader_bsdf_sample` sums the closures). The
 //! `pdf` it reports is that sum, identical to `eval(wo, wi).pdf`.
@@ -78,7 +80,7 @@
 //! weight = closure weight / albedo / selection probability (the walk
 //! supplies the colour through the single-scattering albedo), no Fresnel.
 //! [`SubsurfaceMedium`] gives σt and the single-scattering albedo by Cycles'
-//! remap (formula in [`subsurface`]), and [`SubsurfaceExit`] the Burley exit
+//! remap (formula in module `subsurface`), and [`SubsurfaceExit`] the Burley exit
 //! lobe at the point where the walk leaves.
 //!
 //! # Geometry conventions
@@ -98,7 +100,7 @@
 //! - Degenerate normals (zero, NaN) fall back to the other normal, or +Z.
 //!
 //! Transmission keeps Cycles' convention of not scaling radiance by 1/eta²
-//! (see [`glass`]). `eval` is reciprocal for the diffuse and specular lobes
+//! (see module `glass`). `eval` is reciprocal for the diffuse and specular lobes
 //! (tested); the glass lobe is not (renormalization, eta²), nor are pairs
 //! where the shading normal had to be bent, since the bend depends on `wo`.
 

@@ -144,8 +144,8 @@ impl Bsdf {
         }
     }
 
-    /// Samples a direction from u in [0,1)³ (u[0] picks the lobe, u[1..]
-    /// the direction); None when the sample is invalid.
+    /// Samples a direction from `u` in [0, 1)³ (`u[0]` picks the lobe,
+    /// `u[1]` and `u[2]` the direction); None when the sample is invalid.
     pub fn sample(&self, wo: Vec3, u: [f32; 3]) -> Option<BsdfSample> {
         let p = self.prepare(wo)?;
         let (lobe, u_reuse) = pick(&p.probability, clamp_unit(u[0]))?;
@@ -220,11 +220,6 @@ impl Bsdf {
     /// The random-walk medium, when the material has subsurface scattering.
     pub fn subsurface_medium(&self) -> Option<SubsurfaceMedium> {
         self.subsurface.map(|s| s.medium)
-    }
-
-    /// The (sanitized) roughness the lobes use.
-    pub fn roughness(&self) -> f32 {
-        self.roughness
     }
 
     fn prepare(&self, wo: Vec3) -> Option<Prepared> {
