@@ -8,11 +8,16 @@
 //!   as for the white reference, and the object is every non-panel pixel
 //!   with panel pixels on both sides in its row (IoU over those rows'
 //!   spans, the only place the panel can tell object from background).
-//! - Lights: for each lit capture of a posed light, the Pearson correlation
+//! - Lights: for each lit capture of a posed light, the Spearman (rank)
+//!   correlation
 //!   over object pixels between the observed light (luma of `lit -
 //!   ambient`) and the diffuse shading the calibration predicts
 //!   (`max(cos_nl, 0) / distance^2` where lit, 0 in shadow). Albedo and
-//!   gloss only add scatter; a light in the wrong place moves the predicted
+//!   gloss only add scatter (ranks keep highlights from dominating; on a
+//!   white diffuse object a correct calibration scores above 0.9, but a
+//!   strongly textured or metallic object can fall below the 0.5 default
+//!   with a correct calibration, so treat a light warning on such an object
+//!   as a prompt to look, not a verdict); a light in the wrong place moves the predicted
 //!   highlights and shadows and the correlation drops.
 
 use crate::calibrate::ScanCalibration;
@@ -130,6 +135,34 @@ pub fn panel_span(panel: &MaskRaster) -> MaskRaster {
         }
     }
     out
+}
+
+/// Spearman's rank correlation: Pearson's over ranks (ties share their
+/// mean rank). Ranks make the check indifferent to how bright highlights
+/// are, and to the monotone effect of exposure and camera response.
+fn spearman(pairs: &[(f64, f64)]) -> Option<f64> {
+    fn ranks(values: Vec<f64>) -> Vec<f64> {
+        let mut order: Vec<usize> = (0..values.len()).collect();
+        order.sort_by(|&a, &b| values[a].total_cmp(&values[b]));
+        let mut r = vec![0.0; values.len()];
+        let mut i = 0;
+        while i < order.len() {
+            let mut j = i;
+            while j + 1 < order.len() && values[order[j + 1]] == values[order[i]] {
+                j += 1;
+            }
+            let mean = (i + j) as f64 / 2.0;
+            for &k in &order[i..=j] {
+                r[k] = mean;
+            }
+            i = j + 1;
+        }
+        r
+    }
+    let rx = ranks(pairs.iter().map(|p| p.0).collect());
+    let ry = ranks(pairs.iter().map(|p| p.1).collect());
+    let ranked: Vec<(f64, f64)> = rx.into_iter().zip(ry).collect();
+    pearson(&ranked)
 }
 
 fn pearson(pairs: &[(f64, f64)]) -> Option<f64> {
@@ -254,7 +287,7 @@ pub fn check(
                 })
                 .filter(|(a, b)| a.is_finite() && b.is_finite())
                 .collect();
-            let correlation = pearson(&pairs);
+            let correlation = spearman(&pairs);
             if correlation.is_some_and(|c| c < options.min_correlation) {
                 problems.push(format!(
                     "position `{}`: capture `{}`: the photo's shading correlates with light `{light}`'s predicted shading by only {:.3} (< {}): check the light's position",

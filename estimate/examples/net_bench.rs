@@ -87,7 +87,7 @@ fn time_forward(net: &ParamNet, views: usize, side: usize) -> Result<f64, String
     let checksum: f32 = out
         .fused
         .into_data()
-        .to_vec::<f32>()
+        .try_to_vec::<f32>()
         .map_err(|e| format!("{e:?}"))?
         .iter()
         .take(1)

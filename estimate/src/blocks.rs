@@ -310,7 +310,7 @@ mod tests {
     }
 
     fn values(t: Tensor<4>) -> Vec<f32> {
-        t.into_data().to_vec::<f32>().expect("f32 tensor")
+        t.into_data().try_to_vec::<f32>().expect("f32 tensor")
     }
 
     #[test]

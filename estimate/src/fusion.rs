@@ -192,7 +192,7 @@ mod tests {
                 let fused = fuse_max(tensors).expect("non-empty");
                 let bits: Vec<u32> = fused
                     .into_data()
-                    .to_vec::<f32>()
+                    .try_to_vec::<f32>()
                     .expect("f32")
                     .iter()
                     .map(|v| v.to_bits())
@@ -214,7 +214,7 @@ mod tests {
             })
             .expect("no error");
         assert_eq!(visited, vec![0, 1, 2, 3, 4]);
-        assert_eq!(fused.into_data().to_vec::<f32>().expect("f32"), vec![4.0]);
+        assert_eq!(fused.into_data().try_to_vec::<f32>().expect("f32"), vec![4.0]);
     }
 
     #[test]

@@ -311,7 +311,7 @@ impl ParamNet {
         let width = self.config.width;
         // The per-view feature half (roughness); empty tensors otherwise.
         let mut own: Vec<Option<Tensor<4>>> = vec![None; views.len()];
-        let mut keep_own = |view: usize, features: Tensor<4>, own: &mut Vec<Option<Tensor<4>>>| {
+        let keep_own = |view: usize, features: Tensor<4>, own: &mut Vec<Option<Tensor<4>>>| {
             if fused_width < width {
                 own[view] = Some(features.clone().narrow(1, fused_width, width - fused_width));
                 features.narrow(1, 0, fused_width)

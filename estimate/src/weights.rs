@@ -236,7 +236,7 @@ pub fn to_bytes(net: &ParamNet) -> Result<Vec<u8>, WeightsError> {
             ("bias", bias_dims, bias.into_data()),
         ] {
             let tensor_name = format!("{name}.{suffix}");
-            let values = data.to_vec::<f32>().map_err(|e| WeightsError::Device {
+            let values = data.try_to_vec::<f32>().map_err(|e| WeightsError::Device {
                 kind: config.kind(),
                 name: tensor_name.clone(),
                 message: format!("{e:?}"),
@@ -630,7 +630,7 @@ mod tests {
         let out = net.forward(&views).expect("valid views");
         std::iter::once(out.fused)
             .chain(out.per_view)
-            .flat_map(|t| t.into_data().to_vec::<f32>().expect("f32"))
+            .flat_map(|t| t.into_data().try_to_vec::<f32>().expect("f32"))
             .map(f32::to_bits)
             .collect()
     }

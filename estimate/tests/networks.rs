@@ -38,7 +38,7 @@ fn random_views(kind: ParamKind, count: usize, h: usize, w: usize, seed: u64) ->
 
 fn bits(t: &Tensor<4>) -> Vec<u32> {
     t.to_data()
-        .to_vec::<f32>()
+        .try_to_vec::<f32>()
         .expect("f32")
         .iter()
         .map(|v| v.to_bits())
@@ -46,7 +46,7 @@ fn bits(t: &Tensor<4>) -> Vec<u32> {
 }
 
 fn values(t: &Tensor<4>) -> Vec<f32> {
-    t.to_data().to_vec::<f32>().expect("f32")
+    t.to_data().try_to_vec::<f32>().expect("f32")
 }
 
 fn assert_finite(output: &NetOutput, what: &str) {

@@ -16,7 +16,7 @@ struct Snapshot(Vec<(ParamId, Vec<f32>)>);
 
 impl ModuleVisitor for Snapshot {
     fn visit_float<const D: usize>(&mut self, param: &Param<Tensor<D>>) {
-        let values = param.val().into_data().to_vec::<f32>().expect("f32");
+        let values = param.val().into_data().try_to_vec::<f32>().expect("f32");
         self.0.push((param.id, values));
     }
 }

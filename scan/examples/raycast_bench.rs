@@ -8,6 +8,7 @@
 
 use glam::{Vec2, Vec3};
 use matscan_scan::bvh::{Bvh, Ray, RayCaster};
+use matscan_scan::mesh_io::{read_mesh, write_mesh};
 use matscan_scan::Mesh;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
@@ -36,6 +37,36 @@ fn main() {
         ms(build.0),
         ms(build.1)
     );
+
+    // Mesh I/O at the same size, for scale: binary PLY and OBJ.
+    let dir = std::env::temp_dir().join(format!("matscan-raycast-bench-{}", std::process::id()));
+    if std::fs::create_dir_all(&dir).is_ok() {
+        for name in ["bench.ply", "bench.obj"] {
+            let path = dir.join(name);
+            let write = median_pair(|| {
+                let clock = Clock::start();
+                if let Err(e) = write_mesh(&path, &mesh) {
+                    eprintln!("write {name}: {e}");
+                }
+                clock.stop()
+            });
+            let read = median_pair(|| {
+                let clock = Clock::start();
+                let read = read_mesh(&path);
+                let times = clock.stop();
+                assert_eq!(read.ok().as_ref(), Some(&mesh), "{name} round trip");
+                times
+            });
+            let size = std::fs::metadata(&path).map_or(0, |m| m.len());
+            println!(
+                "{name} ({:.1} MB): write {:.0} ms, read {:.0} ms on-CPU",
+                size as f64 / 1e6,
+                ms(write.1),
+                ms(read.1)
+            );
+        }
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 
     let caster = RayCaster::new(mesh);
     println!("nodes: {}", caster.bvh.node_count());
@@ -237,7 +268,7 @@ fn primary_rays(width: usize, height: usize) -> Vec<Ray> {
     let forward = (-eye).normalize();
     let right = forward.cross(Vec3::Y).normalize();
     let up = right.cross(forward);
-    let f = 1.1 * width as f32 / 2.0;
+    let f = 1.8 * width as f32 / 2.0;
     let mut rays = Vec::with_capacity(width * height);
     for y in 0..height {
         for x in 0..width {

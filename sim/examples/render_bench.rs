@@ -6,7 +6,7 @@
 //!     at 128 x 128: RMSE of the photos against a reference with 16 times
 //!     the default samples.
 //!
-//! `cargo run --release -p matscan-sim --example render_bench [seed] [threads]`
+//! `cargo run --release -p matscan-sim --example render_bench [seed] [threads] [--noise-only]`
 
 use matscan_sim::render::{
     write_scan_bundle, CaptureSpec, RenderOptions, Renderer, SimOptions, DEFAULT_SAMPLES,
@@ -15,7 +15,9 @@ use matscan_sim::scene::{generate, SceneOptions};
 use std::time::Instant;
 
 fn main() {
-    let args: Vec<String> = std::env::args().collect();
+    let all: Vec<String> = std::env::args().collect();
+    let noise_only = all.iter().any(|a| a == "--noise-only");
+    let args: Vec<String> = all.into_iter().filter(|a| a != "--noise-only").collect();
     let seed: u64 = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(7);
     let threads: Option<usize> = args.get(2).and_then(|s| s.parse().ok());
     if let Some(n) = threads {
@@ -28,7 +30,14 @@ fn main() {
         rayon::current_num_threads()
     );
 
-    // (a) The full scan.
+    if !noise_only {
+        full_scan(seed);
+    }
+    time_against_noise(seed);
+}
+
+/// (a) The full scan.
+fn full_scan(seed: u64) {
     let scene = generate(&SceneOptions {
         seed,
         ..SceneOptions::default()
@@ -51,8 +60,10 @@ fn main() {
         Err(e) => println!("full scan failed after {secs:.1} s: {e}"),
     }
     let _ = std::fs::remove_dir_all(&dir);
+}
 
-    // (b) Time against noise.
+/// (b) Time against noise.
+fn time_against_noise(seed: u64) {
     let scene = generate(&SceneOptions {
         seed,
         width: 128,

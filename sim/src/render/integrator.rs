@@ -91,6 +91,7 @@ struct Prev {
 }
 
 const ROULETTE_FROM: u32 = 3;
+thread_local! { static DBG: std::cell::RefCell<Vec<String>> = const { std::cell::RefCell::new(Vec::new()) }; }
 
 impl Pass<'_> {
     /// Renders every slot; rows run in parallel on the current rayon pool.
@@ -148,7 +149,18 @@ impl Pass<'_> {
     }
 
     /// Adds one path's contributions to `out` (one entry per slot).
-    pub fn trace(&self, mut ray: Ray, rng: &mut PixelRng, out: &mut [Vec3]) {
+    pub fn trace(&self, ray: Ray, rng: &mut PixelRng, out: &mut [Vec3]) {
+        let before: Vec<Vec3> = out.to_vec();
+        DBG.with(|d| d.borrow_mut().clear());
+        self.trace_inner(ray, rng, out);
+        for (i, (a, b)) in out.iter().zip(&before).enumerate() {
+            if (*a - *b).max_element() > 20.0 {
+                DBG.with(|d| eprintln!("FIREFLY slot {i} value {} path {:?}", (*a - *b).max_element(), d.borrow()));
+            }
+        }
+    }
+
+    fn trace_inner(&self, mut ray: Ray, rng: &mut PixelRng, out: &mut [Vec3]) {
         let mut beta = Vec3::ONE;
         let mut prev: Option<Prev> = None;
         let mut vertices = 0u32;
@@ -187,6 +199,7 @@ impl Pass<'_> {
             let Some(s) = shader.sample(wo, rng.next3()) else {
                 break;
             };
+            DBG.with(|d| d.borrow_mut().push(format!("{}:{:?}{} w{:.2} pdf{:.3}", if on_panel {"panel"} else {"obj"}, s.lobe, if s.delta {"(delta)"} else {""}, s.weight.max_element(), s.pdf)));
             let Some(next) = self.continue_path(p, ng, &shader, s, &mut beta, rng, out, &mut vertices)
             else {
                 break;
@@ -227,6 +240,7 @@ impl Pass<'_> {
             let start = self.world.offset(p, ng, s.wi);
             let exit = super::subsurface::walk(&self.world, &medium, start, s.wi, rng)?;
             *beta *= exit.weight;
+            DBG.with(|d| d.borrow_mut().push(format!("WALK w{:?}", exit.weight)));
             if !(beta.is_finite() && beta.max_element() > 0.0) || *vertices >= self.max_depth {
                 return None;
             }
@@ -282,6 +296,7 @@ impl Pass<'_> {
             _ => 1.0,
         };
         out[slot] += beta * le * w;
+        DBG.with(|d| d.borrow_mut().push(format!("ENVHIT beta{:.2} le{:.1} w{:.3}", beta.max_element(), le.max_element(), w)));
     }
 
     fn add_panel_emission(
@@ -332,6 +347,7 @@ impl Pass<'_> {
                     .occluded_point(self.world.offset(p, ng, ill.wi), ill.light_pos)
             {
                 out[*slot] += beta * f * ill.incident;
+                DBG.with(|d| d.borrow_mut().push(format!("FLASH beta{:.2} f{:.3} inc{:.2}", beta.max_element(), f.max_element(), ill.incident.max_element())));
             }
         }
         if let Some(term) = &self.projector {
@@ -378,6 +394,7 @@ impl Pass<'_> {
                     {
                         let w = power_heuristic(es.pdf, e.pdf);
                         out[slot] += beta * e.value * es.radiance * (w / es.pdf);
+                        DBG.with(|d| d.borrow_mut().push(format!("ENVNEE beta{:.2} f{:.3} L{:.1} w{:.3} pdf{:.3} bpdf{:.3}", beta.max_element(), e.value.max_element(), es.radiance.max_element(), w, es.pdf, e.pdf)));
                     }
                 }
             }
