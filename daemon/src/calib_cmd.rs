@@ -79,7 +79,10 @@ fn print_report(report: &CheckReport) {
                     "  {} ({}): shading correlation {c:.3} over {} px",
                     l.capture, l.light, l.pixels
                 ),
-                None => println!("  {} ({}): no shading variation to compare", l.capture, l.light),
+                None => println!(
+                    "  {} ({}): no shading variation to compare",
+                    l.capture, l.light
+                ),
             }
         }
     }

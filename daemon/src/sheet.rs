@@ -10,8 +10,8 @@
 
 use crate::font;
 use anyhow::{Context, Result};
-use matscan_scan::raster::{MaskRaster, Raster, RgbRaster, ScalarRaster};
 use matscan_scan::bundle::TruthImage;
+use matscan_scan::raster::{MaskRaster, Raster, RgbRaster, ScalarRaster};
 use matscan_scan::{Bundle, Param, TruthMap};
 use std::path::Path;
 
@@ -184,7 +184,16 @@ fn compose(title: &str, rows: &[(String, Vec<Tile>)], out: &Path) -> Result<()> 
         );
         let mut x = row_label_w;
         for t in tiles {
-            font::draw_text(&mut buf, width, height, x, y + 2, 1, [0.8, 0.8, 0.2], &t.label);
+            font::draw_text(
+                &mut buf,
+                width,
+                height,
+                x,
+                y + 2,
+                1,
+                [0.8, 0.8, 0.2],
+                &t.label,
+            );
             for ty in 0..t.height {
                 let src = (ty * t.width * 3) as usize;
                 let dst = (((y + LABEL_H + ty) * width + x) * 3) as usize;

@@ -404,6 +404,41 @@ fn offset_rays_leaving_a_convex_surface_never_hit_it_at_any_scale() {
 }
 
 #[test]
+fn scene_scaled_offsets_clear_large_triangles_near_the_world_origin() {
+    let mut rng = rng(9);
+    // A 2000 x 2000 ground quad through the origin: hit points near the
+    // origin carry errors of the vertices' magnitude, not of |p|.
+    let ground = Mesh {
+        positions: vec![
+            Vec3::new(-1e3, 0.0, -1e3),
+            Vec3::new(1e3, 0.0, -1e3),
+            Vec3::new(1e3, 0.0, 1e3),
+            Vec3::new(-1e3, 0.0, 1e3),
+        ],
+        normals: None,
+        uvs: None,
+        triangles: vec![[0, 2, 1], [0, 3, 2]],
+    };
+    let caster = RayCaster::new(ground);
+    for _ in 0..2000 {
+        let target = Vec3::new(rng.gen_range(-1e-2..1e-2), 0.0, rng.gen_range(-1e-2..1e-2));
+        let origin = Vec3::new(0.0, 5.0, 0.0) + unit_vector(&mut rng) * 2.0;
+        let Some((_, s)) = caster.closest(&Ray::new(origin, (target - origin).normalize())) else {
+            panic!("ray at the ground near {target} missed");
+        };
+        let n = if origin.y > 0.0 { Vec3::Y } else { Vec3::NEG_Y };
+        let mut d = unit_vector(&mut rng);
+        if d.dot(n) < 0.0 {
+            d = -d;
+        }
+        let d = (d + n * 1e-3).normalize();
+        let out = caster.offset(s.position, n);
+        assert_eq!(caster.bvh.intersect(&Ray::new(out, d)), None, "from {out}");
+        assert!(caster.visible(s.position, s.position + n * 10.0));
+    }
+}
+
+#[test]
 fn visibility_between_surface_points_respects_occluders() {
     let mut rng = rng(6);
     let caster = RayCaster::new(uv_sphere(Vec3::ZERO, 1.0, 32, 48));

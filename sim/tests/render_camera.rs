@@ -55,6 +55,7 @@ fn assert_drawn_exactly_at(distortion: [f64; 5]) {
         samples: 16,
         seed: 1,
         max_depth: 2,
+        ..RenderOptions::default()
     };
     let photo = &renderer
         .render_position(0, &[CaptureSpec::new("flash0", &["flash0"], None)], &opts)
@@ -118,6 +119,7 @@ fn render(scene: &matscan_sim::scene::Scene, seed: u64, threads: usize) -> Vec<[
         samples: 3,
         seed,
         max_depth: 5,
+        ..RenderOptions::default()
     };
     let renderer = Renderer::new(scene).unwrap();
     let images = pool

@@ -40,6 +40,7 @@ fn dark_to_bright(material: &Material) -> f32 {
         samples: 16,
         seed: 4,
         max_depth: 6,
+        ..RenderOptions::default()
     };
     let photo = renderer
         .render_position(0, &[CaptureSpec::new("checker", &["projector"], Some(pattern))], &opts)
@@ -122,6 +123,7 @@ fn backlit_centre(material: &Material) -> f32 {
         samples: 32,
         seed: 6,
         max_depth: 8,
+        ..RenderOptions::default()
     };
     let images = renderer
         .render_position(0, &[CaptureSpec::new("backlight", &["backlight"], None)], &opts)
@@ -174,6 +176,7 @@ fn assert_finite_renders(s: &Scene, what: &str) {
         samples: 4,
         seed: 8,
         max_depth: 8,
+        ..RenderOptions::default()
     };
     let images = renderer.render_position(0, &all_captures(), &opts).unwrap();
     assert_eq!(images.dropped_samples, 0, "{what}: samples dropped");
@@ -246,6 +249,7 @@ fn scene_scale_from_a_millimetre_to_a_kilometre_renders_the_same() {
         samples: 8,
         seed: 2,
         max_depth: 6,
+        ..RenderOptions::default()
     };
     let mean = |k: f32| {
         let s = plane_at_scale(k);

@@ -38,6 +38,7 @@ fn white_plane_under_a_flash_has_the_closed_form_radiance() {
         samples: 32,
         seed: 3,
         max_depth: 4,
+        ..RenderOptions::default()
     };
     let illum = renderer
         .render_illum(0, &[CaptureSpec::new("flash0", &["flash0"], None)], &opts)
@@ -96,6 +97,7 @@ fn white_sphere_in_a_uniform_environment_renders_its_radiance() {
         samples: 64,
         seed: 5,
         max_depth: 8,
+        ..RenderOptions::default()
     };
     let img = renderer
         .render_position_with(
@@ -155,6 +157,7 @@ fn an_occluder_casts_a_shadow_where_it_blocks_the_flash() {
         samples: 16,
         seed: 1,
         max_depth: 4,
+        ..RenderOptions::default()
     };
     let photo = renderer
         .render_position(0, &[CaptureSpec::new("flash0", &["flash0"], None)], &opts)
@@ -202,6 +205,7 @@ fn the_checkerboard_lands_where_the_contract_projects_it() {
         samples: 4,
         seed: 2,
         max_depth: 3,
+        ..RenderOptions::default()
     };
     let photo = renderer
         .render_position(

@@ -41,7 +41,11 @@ fn simulated_bundle_reads_back_with_finite_photos_of_the_camera_size() {
         for c in &p.captures {
             let img = bundle.read_photo(&p.name, &c.name).unwrap();
             assert_eq!((img.width, img.height), (64, 64));
-            assert!(img.data.iter().flatten().all(|v| v.is_finite() && *v >= 0.0));
+            assert!(img
+                .data
+                .iter()
+                .flatten()
+                .all(|v| v.is_finite() && *v >= 0.0));
         }
     }
 }
@@ -88,7 +92,10 @@ fn calib_check_reports_silhouette_iou_of_at_least_0_98_on_a_textured_simulated_s
     )
     .unwrap();
     for p in &report.positions {
-        let s = p.silhouette.as_ref().expect("backlit capture gives a silhouette");
+        let s = p
+            .silhouette
+            .as_ref()
+            .expect("backlit capture gives a silhouette");
         assert!(s.iou >= 0.98, "{}: IoU {}", p.position, s.iou);
         // Texture and gloss weaken the shading test, but a correctly placed
         // light still correlates positively.

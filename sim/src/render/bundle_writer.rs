@@ -104,6 +104,7 @@ fn write_bundle(scene: &Scene, opts: &SimOptions, out_dir: &Path) -> Result<Bund
         samples: opts.samples,
         seed: opts.seed,
         max_depth: opts.max_depth,
+        ..RenderOptions::default()
     };
     let writer = BundleWriter::create(out_dir)?;
     writer.write_mesh(&scene.mesh)?;

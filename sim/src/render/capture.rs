@@ -14,7 +14,7 @@
 
 use super::environment::Environment;
 use super::error::SimError;
-use super::integrator::{MaterialMode, Pass, PassKey, ProjectorTerm};
+use super::integrator::{MaterialMode, Pass, PassKey, ProjectorTerm, DEFAULT_CLAMP_INDIRECT};
 use super::lights::{Flash, Panel, ProjectorLight};
 use super::truth::{render_panel_mask, render_truth, TruthMaps};
 use super::world::{ObjectGeometry, World};
@@ -29,7 +29,7 @@ pub const DEFAULT_SAMPLES: u32 = 16;
 pub const DEFAULT_MAX_DEPTH: u32 = 8;
 
 /// How to render.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RenderOptions {
     /// Paths per pixel (at least 1).
     pub samples: u32,
@@ -37,6 +37,9 @@ pub struct RenderOptions {
     pub seed: u64,
     /// Scattering vertices per path at most.
     pub max_depth: u32,
+    /// Largest radiance of one indirect light event per sample (Cycles'
+    /// "clamp indirect"); infinity or 0 for none.
+    pub clamp_indirect: f32,
 }
 
 impl Default for RenderOptions {
@@ -45,6 +48,7 @@ impl Default for RenderOptions {
             samples: DEFAULT_SAMPLES,
             seed: 0,
             max_depth: DEFAULT_MAX_DEPTH,
+            clamp_indirect: DEFAULT_CLAMP_INDIRECT,
         }
     }
 }
@@ -324,6 +328,11 @@ impl<'a> Renderer<'a> {
             },
             slots: plan.slots,
             max_depth: opts.max_depth,
+            clamp_indirect: if opts.clamp_indirect > 0.0 && !opts.clamp_indirect.is_nan() {
+                opts.clamp_indirect
+            } else {
+                f32::INFINITY
+            },
         })
     }
 }

@@ -18,7 +18,8 @@
 //! inside/outside follows from the geometric normal. Subsurface entry hands
 //! over to a random walk (`super::subsurface`) whose exit is a vertex like
 //! any other. A sample with any non-finite value is dropped whole and
-//! counted, so no NaN or Inf can reach an image.
+//! counted, so no NaN or Inf can reach an image. Indirect light is clamped
+//! per event as Cycles' default does ([`DEFAULT_CLAMP_INDIRECT`]).
 //!
 //! Boundaries: light transport for one pass; which passes to run and how
 //! slots become captures is `super::capture`'s.
@@ -64,6 +65,27 @@ pub struct Pass<'a> {
     pub materials: MaterialMode<'a>,
     pub slots: usize,
     pub max_depth: u32,
+    /// Largest contribution (max channel, radiance) of one indirect light
+    /// event; infinity for none. See [`DEFAULT_CLAMP_INDIRECT`].
+    pub clamp_indirect: f32,
+}
+
+/// Cycles' default "clamp indirect" (10), which the thesis's renders had:
+/// light arriving after two or more scattering vertices is limited to this
+/// radiance per sample. It removes the fireflies of caustics (a flash or
+/// the sun seen through a near-mirror from a diffuse surface) at the cost
+/// of dimming the brightest caustics; direct light is never clamped.
+pub const DEFAULT_CLAMP_INDIRECT: f32 = 10.0;
+
+/// `c` scaled down (hue kept) so its largest channel is at most `limit`.
+#[inline]
+fn clamped(c: Vec3, limit: f32) -> Vec3 {
+    let m = c.max_element();
+    if m > limit {
+        c * (limit / m)
+    } else {
+        c
+    }
 }
 
 /// Key of a pass's random numbers (together with the pixel).
@@ -82,6 +104,14 @@ pub struct PassImages {
     pub dropped_samples: u64,
 }
 
+/// Where a path scatters, and the clamp its light events get.
+#[derive(Debug, Clone, Copy)]
+struct Vertex {
+    p: Vec3,
+    ng: Vec3,
+    limit: f32,
+}
+
 /// The previous vertex, for MIS weights of emitters hit by BSDF sampling.
 #[derive(Debug, Clone, Copy)]
 struct Prev {
@@ -91,7 +121,6 @@ struct Prev {
 }
 
 const ROULETTE_FROM: u32 = 3;
-thread_local! { static DBG: std::cell::RefCell<Vec<String>> = const { std::cell::RefCell::new(Vec::new()) }; }
 
 impl Pass<'_> {
     /// Renders every slot; rows run in parallel on the current rayon pool.
@@ -149,33 +178,28 @@ impl Pass<'_> {
     }
 
     /// Adds one path's contributions to `out` (one entry per slot).
-    pub fn trace(&self, ray: Ray, rng: &mut PixelRng, out: &mut [Vec3]) {
-        let before: Vec<Vec3> = out.to_vec();
-        DBG.with(|d| d.borrow_mut().clear());
-        self.trace_inner(ray, rng, out);
-        for (i, (a, b)) in out.iter().zip(&before).enumerate() {
-            if (*a - *b).max_element() > 20.0 {
-                DBG.with(|d| eprintln!("FIREFLY slot {i} value {} path {:?}", (*a - *b).max_element(), d.borrow()));
-            }
-        }
-    }
-
-    fn trace_inner(&self, mut ray: Ray, rng: &mut PixelRng, out: &mut [Vec3]) {
+    pub fn trace(&self, mut ray: Ray, rng: &mut PixelRng, out: &mut [Vec3]) {
         let mut beta = Vec3::ONE;
         let mut prev: Option<Prev> = None;
         let mut vertices = 0u32;
+        // Scattering vertices without subsurface exits (an exit belongs to
+        // its entry), for what counts as direct light.
+        let mut bounces = 0u32;
         loop {
+            let limit = self.limit(bounces);
             let Some(hit) = self.world.intersect(&ray) else {
-                self.add_environment(&ray, prev, beta, out);
+                self.add_environment(&ray, prev, beta, limit, out);
                 break;
             };
             if let Surface::Panel { position } = hit.surface {
-                self.add_panel_emission(&ray, position, prev, beta, out);
+                self.add_panel_emission(&ray, position, prev, beta, limit, out);
             }
             if vertices >= self.max_depth {
                 break;
             }
             vertices += 1;
+            bounces += 1;
+            let limit = self.limit(bounces);
             let wo = -ray.dir;
             let (p, ng, shader, on_panel) = match hit.surface {
                 Surface::Panel { position } => {
@@ -195,12 +219,12 @@ impl Pass<'_> {
                     (sp.position, sp.geometric_normal, shader, false)
                 }
             };
-            self.direct(p, ng, wo, &shader, on_panel, beta, rng, out);
+            self.direct(p, ng, wo, &shader, on_panel, beta, limit, rng, out);
             let Some(s) = shader.sample(wo, rng.next3()) else {
                 break;
             };
-            DBG.with(|d| d.borrow_mut().push(format!("{}:{:?}{} w{:.2} pdf{:.3}", if on_panel {"panel"} else {"obj"}, s.lobe, if s.delta {"(delta)"} else {""}, s.weight.max_element(), s.pdf)));
-            let Some(next) = self.continue_path(p, ng, &shader, s, &mut beta, rng, out, &mut vertices)
+            let at = Vertex { p, ng, limit };
+            let Some(next) = self.continue_path(at, &shader, s, &mut beta, rng, out, &mut vertices)
             else {
                 break;
             };
@@ -219,11 +243,9 @@ impl Pass<'_> {
     /// Applies a sampled scattering event: updates `beta`, runs the
     /// subsurface walk (and its exit vertex) when the sample enters the
     /// medium, and returns the next ray with its MIS record.
-    #[allow(clippy::too_many_arguments)]
     fn continue_path(
         &self,
-        p: Vec3,
-        ng: Vec3,
+        Vertex { p, ng, limit }: Vertex,
         shader: &Shader,
         s: Sampled,
         beta: &mut Vec3,
@@ -240,7 +262,6 @@ impl Pass<'_> {
             let start = self.world.offset(p, ng, s.wi);
             let exit = super::subsurface::walk(&self.world, &medium, start, s.wi, rng)?;
             *beta *= exit.weight;
-            DBG.with(|d| d.borrow_mut().push(format!("WALK w{:?}", exit.weight)));
             if !(beta.is_finite() && beta.max_element() > 0.0) || *vertices >= self.max_depth {
                 return None;
             }
@@ -258,7 +279,7 @@ impl Pass<'_> {
             let xns = exit.surface.shading_normal * out_side;
             let exit_shader = Shader::SubsurfaceExit(medium.exit(xns, xng));
             let wo = xng;
-            self.direct(xp, xng, wo, &exit_shader, false, *beta, rng, out);
+            self.direct(xp, xng, wo, &exit_shader, false, *beta, limit, rng, out);
             let xs = exit_shader.sample(wo, rng.next3())?;
             *beta *= xs.weight;
             if !(beta.is_finite() && beta.max_element() > 0.0) {
@@ -285,7 +306,23 @@ impl Pass<'_> {
         ))
     }
 
-    fn add_environment(&self, ray: &Ray, prev: Option<Prev>, beta: Vec3, out: &mut [Vec3]) {
+    /// The clamp for light arriving after `bounces` scattering vertices.
+    fn limit(&self, bounces: u32) -> f32 {
+        if bounces <= 1 {
+            f32::INFINITY
+        } else {
+            self.clamp_indirect
+        }
+    }
+
+    fn add_environment(
+        &self,
+        ray: &Ray,
+        prev: Option<Prev>,
+        beta: Vec3,
+        limit: f32,
+        out: &mut [Vec3],
+    ) {
         let Some(slot) = self.env_slot else { return };
         let le = self.env.radiance(ray.dir);
         if le.max_element() <= 0.0 {
@@ -295,8 +332,7 @@ impl Pass<'_> {
             Some(pv) if !pv.delta => power_heuristic(pv.pdf, self.env.pdf(ray.dir)),
             _ => 1.0,
         };
-        out[slot] += beta * le * w;
-        DBG.with(|d| d.borrow_mut().push(format!("ENVHIT beta{:.2} le{:.1} w{:.3}", beta.max_element(), le.max_element(), w)));
+        out[slot] += clamped(beta * le * w, limit);
     }
 
     fn add_panel_emission(
@@ -305,6 +341,7 @@ impl Pass<'_> {
         position: Vec3,
         prev: Option<Prev>,
         beta: Vec3,
+        limit: f32,
         out: &mut [Vec3],
     ) {
         let (Some(slot), Some(panel)) = (self.backlight_slot, self.world.panel) else {
@@ -320,7 +357,7 @@ impl Pass<'_> {
             }
             _ => 1.0,
         };
-        out[slot] += beta * le * w;
+        out[slot] += clamped(beta * le * w, limit);
     }
 
     /// Next-event estimation to every active emitter at a vertex.
@@ -333,6 +370,7 @@ impl Pass<'_> {
         shader: &Shader,
         on_panel: bool,
         beta: Vec3,
+        limit: f32,
         rng: &mut PixelRng,
         out: &mut [Vec3],
     ) {
@@ -346,8 +384,7 @@ impl Pass<'_> {
                     .world
                     .occluded_point(self.world.offset(p, ng, ill.wi), ill.light_pos)
             {
-                out[*slot] += beta * f * ill.incident;
-                DBG.with(|d| d.borrow_mut().push(format!("FLASH beta{:.2} f{:.3} inc{:.2}", beta.max_element(), f.max_element(), ill.incident.max_element())));
+                out[*slot] += clamped(beta * f * ill.incident, limit);
             }
         }
         if let Some(term) = &self.projector {
@@ -360,7 +397,8 @@ impl Pass<'_> {
                 {
                     let base = beta * f * ill.incident;
                     for (pattern, slot) in &term.patterns {
-                        out[*slot] += base * ProjectorLight::pattern_value(pattern, pixel);
+                        out[*slot] +=
+                            clamped(base * ProjectorLight::pattern_value(pattern, pixel), limit);
                     }
                 }
             }
@@ -377,7 +415,7 @@ impl Pass<'_> {
                             .occluded_panel_point(self.world.offset(p, ng, ls.wi), ls.point)
                     {
                         let w = power_heuristic(ls.pdf, e.pdf);
-                        out[slot] += beta * e.value * ls.radiance * (w / ls.pdf);
+                        out[slot] += clamped(beta * e.value * ls.radiance * (w / ls.pdf), limit);
                     }
                 }
             }
@@ -393,8 +431,7 @@ impl Pass<'_> {
                             .occluded_dir(self.world.offset(p, ng, es.dir), es.dir)
                     {
                         let w = power_heuristic(es.pdf, e.pdf);
-                        out[slot] += beta * e.value * es.radiance * (w / es.pdf);
-                        DBG.with(|d| d.borrow_mut().push(format!("ENVNEE beta{:.2} f{:.3} L{:.1} w{:.3} pdf{:.3} bpdf{:.3}", beta.max_element(), e.value.max_element(), es.radiance.max_element(), w, es.pdf, e.pdf)));
+                        out[slot] += clamped(beta * e.value * es.radiance * (w / es.pdf), limit);
                     }
                 }
             }
