@@ -32,12 +32,12 @@ pub mod raster;
 
 pub use bundle::{Bundle, BundleWriter, TruthImage, TruthKind, TruthMap};
 pub use image_io::Precision;
-pub use bvh::{Bvh, Hit, Ray};
+pub use bvh::{offset_origin, offset_origin_scaled, Bvh, Hit, Ray, RayCaster};
 pub use camera::{Intrinsics, PinholeCamera};
 pub use error::ScanError;
 pub use manifest::{
     Capture, CaptureRole, Encoding, Light, LightKind, Manifest, Pattern, Position, FORMAT,
 };
-pub use mesh::{Mesh, SurfacePoint};
+pub use mesh::{Mesh, MeshDefect, SurfacePoint};
 pub use param::Param;
 pub use raster::Raster;
