@@ -68,7 +68,9 @@ fn options() -> Result<Options, String> {
             "--views" => options.views = list(&value()?, |s| s.parse().ok())?,
             "--sizes" => options.sizes = list(&value()?, |s| s.parse().ok())?,
             "--five" => options.five = true,
-            "--memory" => options.memory = Some(value()?.parse().map_err(|_| "--memory needs a side")?),
+            "--memory" => {
+                options.memory = Some(value()?.parse().map_err(|_| "--memory needs a side")?)
+            }
             other => return Err(format!("unknown option {other:?}")),
         }
     }
@@ -80,7 +82,13 @@ fn time_forward(net: &ParamNet, views: usize, side: usize) -> Result<f64, String
     let device = net.device();
     let c = net.config().in_channels();
     let inputs: Vec<Tensor<4>> = (0..views)
-        .map(|_| Tensor::random([1, c, side, side], Distribution::Uniform(-1.0, 1.0), &device))
+        .map(|_| {
+            Tensor::random(
+                [1, c, side, side],
+                Distribution::Uniform(-1.0, 1.0),
+                &device,
+            )
+        })
         .collect();
     let start = Instant::now();
     let out = net.forward(&inputs).map_err(|e| e.to_string())?;
@@ -109,7 +117,11 @@ fn peak_rss_mib() -> Option<f64> {
 fn run() -> Result<(), String> {
     let options = options()?;
     let device = options.backend.device().map_err(|e| e.to_string())?;
-    println!("backend {}, {} rayon threads", options.backend, std::thread::available_parallelism().map_or(1, |n| n.get()));
+    println!(
+        "backend {}, {} rayon threads",
+        options.backend,
+        std::thread::available_parallelism().map_or(1, |n| n.get())
+    );
     if let Some(side) = options.memory {
         let kind = options.kinds[0];
         let config = NetConfig::shipped(kind);
@@ -130,7 +142,10 @@ fn run() -> Result<(), String> {
             let config = NetConfig::shipped(kind);
             let net = ParamNet::new(config, &device);
             let seconds = time_forward(&net, 9, 256)?;
-            let gflop = config.forward_flops(256, 256, 9).map_err(|e| e.to_string())? / 1e9;
+            let gflop = config
+                .forward_flops(256, 256, 9)
+                .map_err(|e| e.to_string())?
+                / 1e9;
             println!(
                 "{kind:>12} width {:>3} track {:>2}: {seconds:6.2} s, {gflop:6.1} GFLOP, {:5.1} GFLOP/s",
                 config.width(),
@@ -140,10 +155,16 @@ fn run() -> Result<(), String> {
             total += seconds;
             flops += gflop;
         }
-        println!("five networks, 9 views, 256x256: {total:.2} s, {flops:.1} GFLOP, {:.1} GFLOP/s", flops / total);
+        println!(
+            "five networks, 9 views, 256x256: {total:.2} s, {flops:.1} GFLOP, {:.1} GFLOP/s",
+            flops / total
+        );
         return Ok(());
     }
-    println!("{:>12} {:>5} {:>5} {:>5} {:>9} {:>9} {:>8}", "network", "width", "views", "side", "seconds", "GFLOP", "GFLOP/s");
+    println!(
+        "{:>12} {:>5} {:>5} {:>5} {:>9} {:>9} {:>8}",
+        "network", "width", "views", "side", "seconds", "GFLOP", "GFLOP/s"
+    );
     for &kind in &options.kinds {
         for &width in &options.widths {
             let config = NetConfig::new(kind, width).map_err(|e| e.to_string())?;
@@ -151,7 +172,10 @@ fn run() -> Result<(), String> {
             for &side in &options.sizes {
                 for &views in &options.views {
                     let seconds = time_forward(&net, views, side)?;
-                    let gflop = config.forward_flops(side, side, views).map_err(|e| e.to_string())? / 1e9;
+                    let gflop = config
+                        .forward_flops(side, side, views)
+                        .map_err(|e| e.to_string())?
+                        / 1e9;
                     println!(
                         "{:>12} {width:>5} {views:>5} {side:>5} {seconds:>9.3} {gflop:>9.2} {:>8.1}",
                         kind.name(),

@@ -144,7 +144,10 @@ mod tests {
         assert_eq!(
             FusionTree::balanced(9).map(Box::new),
             Some(pair(
-                pair(pair(leaf(0), leaf(1)), pair(pair(leaf(2), leaf(3)), pair(leaf(4), leaf(5)))),
+                pair(
+                    pair(leaf(0), leaf(1)),
+                    pair(pair(leaf(2), leaf(3)), pair(leaf(4), leaf(5)))
+                ),
                 pair(pair(leaf(6), leaf(7)), leaf(8))
             ))
         );
@@ -156,7 +159,11 @@ mod tests {
             let tree = FusionTree::balanced(views).expect("non-empty");
             assert_eq!(tree.leaves(), (0..views).collect::<Vec<_>>());
             let optimal = views.next_power_of_two().trailing_zeros() as usize;
-            assert!(tree.depth() <= optimal + 1, "{views} views: depth {}", tree.depth());
+            assert!(
+                tree.depth() <= optimal + 1,
+                "{views} views: depth {}",
+                tree.depth()
+            );
         }
     }
 
@@ -186,7 +193,10 @@ mod tests {
                 let tensors = order
                     .iter()
                     .map(|&v| {
-                        Tensor::<4>::from_data(TensorData::new(sets[v].clone(), [1, 3, 4, 4]), &device)
+                        Tensor::<4>::from_data(
+                            TensorData::new(sets[v].clone(), [1, 3, 4, 4]),
+                            &device,
+                        )
                     })
                     .collect();
                 let fused = fuse_max(tensors).expect("non-empty");
@@ -214,7 +224,10 @@ mod tests {
             })
             .expect("no error");
         assert_eq!(visited, vec![0, 1, 2, 3, 4]);
-        assert_eq!(fused.into_data().try_to_vec::<f32>().expect("f32"), vec![4.0]);
+        assert_eq!(
+            fused.into_data().try_to_vec::<f32>().expect("f32"),
+            vec![4.0]
+        );
     }
 
     #[test]

@@ -63,7 +63,9 @@ pub enum ConfigError {
         value: usize,
     },
     /// The roughness network halves its features.
-    #[error("the {kind} network splits its features in half, so its width must be even, got {width}")]
+    #[error(
+        "the {kind} network splits its features in half, so its width must be even, got {width}"
+    )]
     OddSplit {
         /// The network.
         kind: ParamKind,
@@ -162,12 +164,23 @@ impl NetConfig {
 
     /// Floating-point operations (multiply and add counted apart) of the
     /// convolutions in one forward pass of `views` views at this size.
-    pub fn forward_flops(&self, height: usize, width: usize, views: usize) -> Result<f64, EmptyImage> {
+    pub fn forward_flops(
+        &self,
+        height: usize,
+        width: usize,
+        views: usize,
+    ) -> Result<f64, EmptyImage> {
         let plan = PyramidPlan::new(height, width)?;
-        let (w, t, c) = (self.width as f64, self.track as f64, self.in_channels() as f64);
+        let (w, t, c) = (
+            self.width as f64,
+            self.track as f64,
+            self.in_channels() as f64,
+        );
         let s = self.fused_width() as f64;
         let v = views as f64;
-        let unit = |channels_in: f64, channels_out: f64| 3.0 * t * channels_in + 18.0 * t * t + 3.0 * t * channels_out;
+        let unit = |channels_in: f64, channels_out: f64| {
+            3.0 * t * channels_in + 18.0 * t * t + 3.0 * t * channels_out
+        };
         let pixels = |level: usize| {
             let [h, w] = plan.level_size(level);
             (h * w) as f64
@@ -209,7 +222,9 @@ pub enum InputError {
         channels: usize,
     },
     /// Views of different image sizes.
-    #[error("view {view} is {found:?} pixels but view 0 is {first:?}; all views must share one size")]
+    #[error(
+        "view {view} is {found:?} pixels but view 0 is {first:?}; all views must share one size"
+    )]
     SizeMismatch {
         /// Index of the view.
         view: usize,
@@ -298,7 +313,8 @@ impl ParamNet {
             });
         };
         // levels[l][v]: level l (0 = full size) of view v.
-        let mut levels: Vec<Vec<Tensor<4>>> = vec![Vec::with_capacity(views.len()); plan.halvings() + 1];
+        let mut levels: Vec<Vec<Tensor<4>>> =
+            vec![Vec::with_capacity(views.len()); plan.halvings() + 1];
         for view in views {
             for (level, image) in plan.build(sanitize(view.clone())).into_iter().enumerate() {
                 levels[level].push(image);
@@ -332,9 +348,9 @@ impl ParamNet {
                     Some(mine) => Tensor::cat(vec![up.clone(), upsample_nearest(mine)], 1),
                     None => up.clone(),
                 };
-                let refined = self
-                    .core
-                    .forward_with_shared(features, &shared, Some(inputs[view].clone()));
+                let refined =
+                    self.core
+                        .forward_with_shared(features, &shared, Some(inputs[view].clone()));
                 let refined = self.core_prime.forward(refined, None);
                 Ok(keep_own(view, refined, &mut own))
             })?;
@@ -413,7 +429,10 @@ impl ParamNet {
         if let Some(stem) = &mut self.illumination_stem {
             units.push(&mut stem.unit);
         }
-        units.into_iter().flat_map(|unit| unit.convs_mut()).collect()
+        units
+            .into_iter()
+            .flat_map(|unit| unit.convs_mut())
+            .collect()
     }
 
     fn blocks(&self) -> Vec<(&'static str, &crate::blocks::InceptionUnit)> {

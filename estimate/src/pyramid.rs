@@ -92,9 +92,7 @@ impl PyramidPlan {
         if self.padded == self.size {
             return image;
         }
-        image
-            .narrow(2, 0, self.size[0])
-            .narrow(3, 0, self.size[1])
+        image.narrow(2, 0, self.size[0]).narrow(3, 0, self.size[1])
     }
 
     /// The pyramid of `image` `[n, c, height, width]`: padded, then halved
@@ -118,7 +116,8 @@ pub fn downsample_mean(image: Tensor<4>) -> Tensor<4> {
 /// Nearest-neighbour doubling: `[n, c, h, w]` to `[n, c, 2h, 2w]`.
 pub fn upsample_nearest(image: Tensor<4>) -> Tensor<4> {
     let [_, _, h, w] = image.dims();
-    let options = InterpolateOptions::new(InterpolateMode::Nearest).with_output_size([2 * h, 2 * w]);
+    let options =
+        InterpolateOptions::new(InterpolateMode::Nearest).with_output_size([2 * h, 2 * w]);
     interpolate(image, options)
 }
 
@@ -172,7 +171,10 @@ mod tests {
         assert_eq!(padded.dims(), [1, 1, 18, 4]);
         let padded_values = values(padded.clone());
         assert_eq!(padded_values[3], 0.0, "right column");
-        assert!(padded_values[17 * 4..].iter().all(|v| *v == 0.0), "bottom row");
+        assert!(
+            padded_values[17 * 4..].iter().all(|v| *v == 0.0),
+            "bottom row"
+        );
         assert_eq!(values(plan.crop(padded)), data);
     }
 

@@ -35,6 +35,10 @@ use burn::tensor::{Device, Tensor, TensorData};
 use std::fmt;
 use std::path::{Path, PathBuf};
 
+mod codec;
+
+use codec::{fnv1a, put_str, put_u32, to_u32, Reader, CHECKSUM_LEN};
+
 /// First bytes of every weight file.
 pub const MAGIC: &[u8; 8] = b"MATSCNET";
 /// Version of the file layout this build reads and writes.
@@ -275,7 +279,11 @@ pub fn save_file(net: &ParamNet, path: &Path) -> Result<(), WeightsError> {
 }
 
 /// Loads a network from `source`.
-pub fn load(source: &WeightSource, expected: impl Into<Expected>, device: &Device) -> Result<ParamNet, WeightsError> {
+pub fn load(
+    source: &WeightSource,
+    expected: impl Into<Expected>,
+    device: &Device,
+) -> Result<ParamNet, WeightsError> {
     let expected = expected.into();
     match source {
         WeightSource::Embedded => load_embedded(expected, device),
@@ -284,7 +292,11 @@ pub fn load(source: &WeightSource, expected: impl Into<Expected>, device: &Devic
 }
 
 /// Loads a network from the weight file at `path`.
-pub fn load_file(path: &Path, expected: impl Into<Expected>, device: &Device) -> Result<ParamNet, WeightsError> {
+pub fn load_file(
+    path: &Path,
+    expected: impl Into<Expected>,
+    device: &Device,
+) -> Result<ParamNet, WeightsError> {
     let origin = path.display().to_string();
     let bytes = std::fs::read(path).map_err(|source| match source.kind() {
         std::io::ErrorKind::NotFound => WeightsError::Missing {
@@ -299,7 +311,10 @@ pub fn load_file(path: &Path, expected: impl Into<Expected>, device: &Device) ->
 }
 
 /// Loads the network compiled into this binary.
-pub fn load_embedded(expected: impl Into<Expected>, device: &Device) -> Result<ParamNet, WeightsError> {
+pub fn load_embedded(
+    expected: impl Into<Expected>,
+    device: &Device,
+) -> Result<ParamNet, WeightsError> {
     let expected = expected.into();
     let Some((_, bytes)) = EMBEDDED.iter().find(|(kind, _)| *kind == expected.kind) else {
         return Err(WeightsError::NoEmbedded {
@@ -319,14 +334,23 @@ pub fn read_header(bytes: &[u8], origin: &str) -> Result<WeightsHeader, WeightsE
 }
 
 /// Loads a network from a weight file's bytes; `origin` names them in errors.
-pub fn from_bytes(bytes: &[u8], origin: &str, expected: impl Into<Expected>, device: &Device) -> Result<ParamNet, WeightsError> {
+pub fn from_bytes(
+    bytes: &[u8],
+    origin: &str,
+    expected: impl Into<Expected>,
+    device: &Device,
+) -> Result<ParamNet, WeightsError> {
     let expected = expected.into();
     let mut reader = Reader::new(bytes, origin);
     reader.verify()?;
     let header = reader.header()?;
     let config = check_header(&header, expected, origin)?;
     let mut net = ParamNet::new(config, device);
-    let names: Vec<String> = net.named_convs().into_iter().map(|(name, _)| name).collect();
+    let names: Vec<String> = net
+        .named_convs()
+        .into_iter()
+        .map(|(name, _)| name)
+        .collect();
     let shapes: Vec<([usize; 4], usize)> = net
         .named_convs()
         .iter()
@@ -339,13 +363,13 @@ pub fn from_bytes(bytes: &[u8], origin: &str, expected: impl Into<Expected>, dev
     if count != 2 * names.len() {
         return Err(mismatch(origin, "tensor count", 2 * names.len(), count));
     }
-    for ((conv, name), (weight_shape, bias_len)) in net.convs_mut().into_iter().zip(&names).zip(shapes) {
-        let index = reader.tensors_read;
+    for ((conv, name), (weight_shape, bias_len)) in
+        net.convs_mut().into_iter().zip(&names).zip(shapes)
+    {
         let weight = reader.tensor(&format!("{name}.weight"), &weight_shape)?;
         let bias = reader.tensor(&format!("{name}.bias"), &[bias_len])?;
         let weight = Tensor::<4>::from_data(TensorData::new(weight, weight_shape), device);
         let bias = Tensor::<1>::from_data(TensorData::new(bias, [bias_len]), device);
-        debug_assert_eq!(reader.tensors_read, index + 2);
         conv.weight = Param::from_tensor(weight);
         conv.bias = Param::from_tensor(bias);
     }
@@ -359,9 +383,18 @@ pub fn from_bytes(bytes: &[u8], origin: &str, expected: impl Into<Expected>, dev
     Ok(net)
 }
 
-fn check_header(header: &WeightsHeader, expected: Expected, origin: &str) -> Result<NetConfig, WeightsError> {
+fn check_header(
+    header: &WeightsHeader,
+    expected: Expected,
+    origin: &str,
+) -> Result<NetConfig, WeightsError> {
     if header.architecture != ARCHITECTURE {
-        return Err(mismatch(origin, "architecture", ARCHITECTURE, header.architecture));
+        return Err(mismatch(
+            origin,
+            "architecture",
+            ARCHITECTURE,
+            header.architecture,
+        ));
     }
     let kind = expected.kind;
     if header.kind != kind.name() {
@@ -399,7 +432,12 @@ fn check_header(header: &WeightsHeader, expected: Expected, origin: &str) -> Res
     })
 }
 
-fn mismatch(origin: &str, what: &'static str, expected: impl fmt::Display, found: impl fmt::Display) -> WeightsError {
+fn mismatch(
+    origin: &str,
+    what: &'static str,
+    expected: impl fmt::Display,
+    found: impl fmt::Display,
+) -> WeightsError {
     WeightsError::Mismatch {
         origin: origin.to_string(),
         what,
@@ -410,203 +448,6 @@ fn mismatch(origin: &str, what: &'static str, expected: impl fmt::Display, found
 
 fn input_names(kind: ParamKind) -> Vec<String> {
     kind.inputs().iter().map(|c| format!("{c:?}")).collect()
-}
-
-fn to_u32(value: usize) -> u32 {
-    // Widths and tensor dimensions are bounded by MAX_WIDTH and the input lists.
-    u32::try_from(value).unwrap_or(u32::MAX)
-}
-
-fn put_u32(out: &mut Vec<u8>, value: u32) {
-    out.extend_from_slice(&value.to_le_bytes());
-}
-
-fn put_str(out: &mut Vec<u8>, text: &str) {
-    let len = u16::try_from(text.len()).unwrap_or(u16::MAX);
-    out.extend_from_slice(&len.to_le_bytes());
-    out.extend_from_slice(&text.as_bytes()[..len as usize]);
-}
-
-/// 64-bit FNV-1a.
-fn fnv1a(bytes: &[u8]) -> u64 {
-    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |hash, byte| {
-        (hash ^ u64::from(*byte)).wrapping_mul(0x0000_0100_0000_01b3)
-    })
-}
-
-/// A cursor over a weight file's bytes that reports what it was reading
-/// when the bytes run out.
-struct Reader<'a> {
-    bytes: &'a [u8],
-    origin: &'a str,
-    offset: usize,
-    /// Where the readable fields end: the whole file until the checksum
-    /// is verified, then the start of the checksum.
-    end: usize,
-    tensors_read: usize,
-}
-
-const CHECKSUM_LEN: usize = 8;
-
-impl<'a> Reader<'a> {
-    fn new(bytes: &'a [u8], origin: &'a str) -> Self {
-        Reader {
-            bytes,
-            origin,
-            offset: 0,
-            end: bytes.len(),
-            tensors_read: 0,
-        }
-    }
-
-    /// Magic, version, declared length, then the checksum over the body.
-    fn verify(&mut self) -> Result<(), WeightsError> {
-        let magic = self.take(MAGIC.len(), "magic")?;
-        if magic != MAGIC {
-            return Err(WeightsError::NotWeights {
-                origin: self.origin.to_string(),
-            });
-        }
-        let version = self.u32("format version")?;
-        if version != FORMAT_VERSION {
-            return Err(WeightsError::Version {
-                origin: self.origin.to_string(),
-                found: version,
-            });
-        }
-        let b = self.take(8, "file length")?;
-        let mut length = [0u8; 8];
-        length.copy_from_slice(b);
-        let declared = usize::try_from(u64::from_le_bytes(length)).unwrap_or(usize::MAX);
-        let len = self.bytes.len();
-        if len < declared {
-            return Err(WeightsError::Truncated {
-                origin: self.origin.to_string(),
-                what: "the whole file".to_string(),
-                needed: declared,
-                offset: 0,
-                len,
-            });
-        }
-        if len > declared {
-            return Err(WeightsError::TrailingBytes {
-                origin: self.origin.to_string(),
-                extra: len - declared,
-            });
-        }
-        let Some(body_len) = len.checked_sub(CHECKSUM_LEN).filter(|body| *body >= self.offset) else {
-            return Err(self.truncated("checksum", CHECKSUM_LEN));
-        };
-        let (body, stored) = self.bytes.split_at(body_len);
-        let mut stored_bytes = [0u8; CHECKSUM_LEN];
-        stored_bytes.copy_from_slice(stored);
-        let found = u64::from_le_bytes(stored_bytes);
-        let computed = fnv1a(body);
-        if found != computed {
-            return Err(WeightsError::Checksum {
-                origin: self.origin.to_string(),
-                found,
-                computed,
-            });
-        }
-        self.end = body_len;
-        Ok(())
-    }
-
-    fn header(&mut self) -> Result<WeightsHeader, WeightsError> {
-        let architecture = self.u32("architecture")?;
-        let kind = self.string("network name")?;
-        let width = self.u32("width")? as usize;
-        let track = self.u32("track")? as usize;
-        let input_count = self.u32("input count")? as usize;
-        let mut inputs = Vec::new();
-        for i in 0..input_count {
-            inputs.push(self.string(&format!("input name {i}"))?);
-        }
-        let fused_outputs = self.u32("fused output count")? as usize;
-        let per_view_outputs = self.u32("per-view output count")? as usize;
-        Ok(WeightsHeader {
-            architecture,
-            kind,
-            width,
-            track,
-            inputs,
-            fused_outputs,
-            per_view_outputs,
-        })
-    }
-
-    /// The next tensor, which must be `name` with `dims` and finite values.
-    fn tensor(&mut self, name: &str, dims: &[usize]) -> Result<Vec<f32>, WeightsError> {
-        let index = self.tensors_read;
-        let problem = |problem: String| WeightsError::Tensor {
-            origin: self.origin.to_string(),
-            index,
-            name: name.to_string(),
-            problem,
-        };
-        let found_name = self.string(&format!("name of tensor {index}"))?;
-        if found_name != name {
-            return Err(problem(format!("the file has {found_name:?} here")));
-        }
-        let rank = self.take(1, &format!("rank of {name}"))?[0] as usize;
-        let mut found_dims = Vec::with_capacity(rank);
-        for _ in 0..rank {
-            found_dims.push(self.u32(&format!("shape of {name}"))? as usize);
-        }
-        if found_dims != dims {
-            return Err(problem(format!(
-                "shape {found_dims:?}, expected {dims:?} for this width and input list"
-            )));
-        }
-        let count: usize = dims.iter().product();
-        let raw = self.take(count * 4, &format!("values of {name}"))?;
-        let values: Vec<f32> = raw
-            .chunks_exact(4)
-            .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
-            .collect();
-        if let Some(bad) = values.iter().position(|v| !v.is_finite()) {
-            return Err(problem(format!("value {bad} is {}", values[bad])));
-        }
-        self.tensors_read += 1;
-        Ok(values)
-    }
-
-    fn remaining_before_checksum(&self) -> usize {
-        self.end.saturating_sub(self.offset)
-    }
-
-    fn take(&mut self, len: usize, what: &str) -> Result<&'a [u8], WeightsError> {
-        let end = self.offset.checked_add(len).filter(|end| *end <= self.end);
-        let Some(end) = end else {
-            return Err(self.truncated(what, len));
-        };
-        let slice = &self.bytes[self.offset..end];
-        self.offset = end;
-        Ok(slice)
-    }
-
-    fn truncated(&self, what: &str, needed: usize) -> WeightsError {
-        WeightsError::Truncated {
-            origin: self.origin.to_string(),
-            what: what.to_string(),
-            needed,
-            offset: self.offset,
-            len: self.bytes.len(),
-        }
-    }
-
-    fn u32(&mut self, what: &str) -> Result<u32, WeightsError> {
-        let b = self.take(4, what)?;
-        Ok(u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
-    }
-
-    fn string(&mut self, what: &str) -> Result<String, WeightsError> {
-        let b = self.take(2, what)?;
-        let len = u16::from_le_bytes([b[0], b[1]]) as usize;
-        let text = self.take(len, what)?;
-        Ok(String::from_utf8_lossy(text).into_owned())
-    }
 }
 
 #[cfg(test)]
@@ -693,8 +534,16 @@ mod tests {
     fn truncated_files_are_reported_as_truncated() {
         let bytes = to_bytes(&small(ParamKind::Transmission, 4)).expect("serialized");
         for keep in [3, 14, 30, bytes.len() / 2, bytes.len() - 1] {
-            let err = error_of(from_bytes(&bytes[..keep], "cut.mscnet", ParamKind::Transmission, &cpu_device()));
-            assert!(matches!(err, WeightsError::Truncated { .. }), "{keep} bytes: {err:?}");
+            let err = error_of(from_bytes(
+                &bytes[..keep],
+                "cut.mscnet",
+                ParamKind::Transmission,
+                &cpu_device(),
+            ));
+            assert!(
+                matches!(err, WeightsError::Truncated { .. }),
+                "{keep} bytes: {err:?}"
+            );
             assert!(err.to_string().contains("cut.mscnet is truncated"), "{err}");
         }
     }
@@ -704,28 +553,59 @@ mod tests {
         let mut bytes = to_bytes(&small(ParamKind::Transmission, 4)).expect("serialized");
         let middle = bytes.len() / 2;
         bytes[middle] ^= 0x10;
-        let err = error_of(from_bytes(&bytes, "flip.mscnet", ParamKind::Transmission, &cpu_device()));
+        let err = error_of(from_bytes(
+            &bytes,
+            "flip.mscnet",
+            ParamKind::Transmission,
+            &cpu_device(),
+        ));
         assert!(matches!(err, WeightsError::Checksum { .. }), "{err:?}");
         assert!(err.to_string().contains("flip.mscnet is corrupt"), "{err}");
     }
 
     #[test]
     fn other_files_and_versions_are_refused() {
-        let err = error_of(from_bytes(b"P3\n# an image, not weights\n", "photo.ppm", ParamKind::Subsurface, &cpu_device()));
+        let err = error_of(from_bytes(
+            b"P3\n# an image, not weights\n",
+            "photo.ppm",
+            ParamKind::Subsurface,
+            &cpu_device(),
+        ));
         assert!(matches!(err, WeightsError::NotWeights { .. }), "{err:?}");
         let mut bytes = to_bytes(&small(ParamKind::Subsurface, 4)).expect("serialized");
         bytes[8..12].copy_from_slice(&2u32.to_le_bytes());
-        let err = error_of(from_bytes(&reseal(bytes), "future.mscnet", ParamKind::Subsurface, &cpu_device()));
-        assert!(matches!(err, WeightsError::Version { found: 2, .. }), "{err:?}");
+        let err = error_of(from_bytes(
+            &reseal(bytes),
+            "future.mscnet",
+            ParamKind::Subsurface,
+            &cpu_device(),
+        ));
+        assert!(
+            matches!(err, WeightsError::Version { found: 2, .. }),
+            "{err:?}"
+        );
     }
 
     #[test]
     fn a_file_for_another_network_or_width_is_a_mismatch() {
         let bytes = to_bytes(&small(ParamKind::Roughness, 6)).expect("serialized");
-        let err = error_of(from_bytes(&bytes, "r.mscnet", ParamKind::Basecolor, &cpu_device()));
+        let err = error_of(from_bytes(
+            &bytes,
+            "r.mscnet",
+            ParamKind::Basecolor,
+            &cpu_device(),
+        ));
         match &err {
-            WeightsError::Mismatch { what, expected, found, .. } => {
-                assert_eq!((*what, expected.as_str(), found.as_str()), ("network", "basecolor", "roughness"));
+            WeightsError::Mismatch {
+                what,
+                expected,
+                found,
+                ..
+            } => {
+                assert_eq!(
+                    (*what, expected.as_str(), found.as_str()),
+                    ("network", "basecolor", "roughness")
+                );
             }
             other => panic!("expected a mismatch, got {other:?}"),
         }
@@ -734,7 +614,10 @@ mod tests {
             width: Some(8),
         };
         let err = error_of(from_bytes(&bytes, "r.mscnet", want_eight, &cpu_device()));
-        assert!(err.to_string().contains("feature width is 6, expected 8"), "{err}");
+        assert!(
+            err.to_string().contains("feature width is 6, expected 8"),
+            "{err}"
+        );
     }
 
     #[test]
@@ -747,8 +630,22 @@ mod tests {
             .expect("input names are stored");
         let mut edited = bytes.clone();
         edited[at..at + 10].copy_from_slice(b"MappedMusk");
-        let err = error_of(from_bytes(&reseal(edited), "t.mscnet", ParamKind::Transmission, &cpu_device()));
-        assert!(matches!(err, WeightsError::Mismatch { what: "input channel list", .. }), "{err:?}");
+        let err = error_of(from_bytes(
+            &reseal(edited),
+            "t.mscnet",
+            ParamKind::Transmission,
+            &cpu_device(),
+        ));
+        assert!(
+            matches!(
+                err,
+                WeightsError::Mismatch {
+                    what: "input channel list",
+                    ..
+                }
+            ),
+            "{err:?}"
+        );
     }
 
     #[test]
@@ -762,15 +659,32 @@ mod tests {
             + 12;
         let mut edited = bytes.clone();
         edited[width_at..width_at + 4].copy_from_slice(&6u32.to_le_bytes());
-        let err = error_of(from_bytes(&reseal(edited), "w.mscnet", ParamKind::Transmission, &cpu_device()));
+        let err = error_of(from_bytes(
+            &reseal(edited),
+            "w.mscnet",
+            ParamKind::Transmission,
+            &cpu_device(),
+        ));
         // The reductions depend on the track only; the expansion meets the width.
-        assert!(err.to_string().contains("input_stem.expand.weight"), "{err}");
-        assert!(err.to_string().contains("shape [4, 6, 1, 1], expected [6, 6, 1, 1]"), "{err}");
+        assert!(
+            err.to_string().contains("input_stem.expand.weight"),
+            "{err}"
+        );
+        assert!(
+            err.to_string()
+                .contains("shape [4, 6, 1, 1], expected [6, 6, 1, 1]"),
+            "{err}"
+        );
         // A NaN in the last value of the last tensor.
         let mut edited = bytes;
         let last = edited.len() - CHECKSUM_LEN - 4;
         edited[last..last + 4].copy_from_slice(&f32::NAN.to_le_bytes());
-        let err = error_of(from_bytes(&reseal(edited), "n.mscnet", ParamKind::Transmission, &cpu_device()));
+        let err = error_of(from_bytes(
+            &reseal(edited),
+            "n.mscnet",
+            ParamKind::Transmission,
+            &cpu_device(),
+        ));
         assert!(matches!(err, WeightsError::Tensor { .. }), "{err:?}");
         assert!(err.to_string().contains("output_stem.expand.bias"), "{err}");
     }
@@ -783,7 +697,11 @@ mod tests {
                 assert!(result.is_ok(), "{kind}");
             } else {
                 let err = error_of(result);
-                assert!(err.to_string().contains(&format!("embeds no {kind} weights")), "{err}");
+                assert!(
+                    err.to_string()
+                        .contains(&format!("embeds no {kind} weights")),
+                    "{err}"
+                );
             }
         }
     }

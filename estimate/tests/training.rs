@@ -69,11 +69,18 @@ fn one_adam_step_moves_every_shared_block_and_lowers_the_loss() {
     net = optimizer.step(1.0e-3, net, grads);
 
     let after: HashMap<ParamId, Vec<f32>> = snapshot(&net).0.into_iter().collect();
-    assert_eq!(after.len(), ids.len(), "the step kept one parameter per field");
+    assert_eq!(
+        after.len(),
+        ids.len(),
+        "the step kept one parameter per field"
+    );
     for (id, old) in &before.0 {
         let new = after.get(id).expect("same parameter ids after the step");
         assert_ne!(new, old, "parameter {id} did not move");
     }
     let second_value = loss(&net, &views).into_scalar::<f32>();
-    assert!(second_value < first_value, "loss {first_value} -> {second_value}");
+    assert!(
+        second_value < first_value,
+        "loss {first_value} -> {second_value}"
+    );
 }

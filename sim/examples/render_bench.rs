@@ -6,18 +6,24 @@
 //!     at 128 x 128: RMSE of the photos against a reference with 16 times
 //!     the default samples.
 //!
-//! `cargo run --release -p matscan-sim --example render_bench [seed] [threads] [--noise-only]`
+//! `cargo run --release -p matscan-sim --example render_bench [seed] [threads] [--noise-only | --scan-only] [--kind=KIND]`
 
 use matscan_sim::render::{
     write_scan_bundle, CaptureSpec, RenderOptions, Renderer, SimOptions, DEFAULT_SAMPLES,
 };
+use matscan_sim::scene::kinds::SceneKind;
 use matscan_sim::scene::{generate, SceneOptions};
 use std::time::Instant;
 
 fn main() {
     let all: Vec<String> = std::env::args().collect();
     let noise_only = all.iter().any(|a| a == "--noise-only");
-    let args: Vec<String> = all.into_iter().filter(|a| a != "--noise-only").collect();
+    let scan_only = all.iter().any(|a| a == "--scan-only");
+    let kind: Option<SceneKind> = all
+        .iter()
+        .find_map(|a| a.strip_prefix("--kind="))
+        .and_then(|k| k.parse().ok());
+    let args: Vec<String> = all.into_iter().filter(|a| !a.starts_with("--")).collect();
     let seed: u64 = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(7);
     let threads: Option<usize> = args.get(2).and_then(|s| s.parse().ok());
     if let Some(n) = threads {
@@ -30,16 +36,20 @@ fn main() {
         rayon::current_num_threads()
     );
 
+    let kind = kind.unwrap_or(SceneKind::Multimat);
     if !noise_only {
-        full_scan(seed);
+        full_scan(seed, kind);
     }
-    time_against_noise(seed);
+    if !scan_only {
+        time_against_noise(seed, kind);
+    }
 }
 
 /// (a) The full scan.
-fn full_scan(seed: u64) {
+fn full_scan(seed: u64, kind: SceneKind) {
     let scene = generate(&SceneOptions {
         seed,
+        kind,
         ..SceneOptions::default()
     });
     let dir = std::env::temp_dir().join(format!("matscan-render-bench-{}", std::process::id()));
@@ -63,9 +73,10 @@ fn full_scan(seed: u64) {
 }
 
 /// (b) Time against noise.
-fn time_against_noise(seed: u64) {
+fn time_against_noise(seed: u64, kind: SceneKind) {
     let scene = generate(&SceneOptions {
         seed,
+        kind,
         width: 128,
         height: 128,
         positions: 1,

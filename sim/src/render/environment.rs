@@ -15,7 +15,10 @@
 //! Sampling: the map (or the procedural sky, evaluated on the same grid) is
 //! reduced to a luminance grid of at most 256 x 128 cells, weighted by
 //! sin(theta) and floored at 1 % of the mean so no direction with light has
-//! density 0; a piecewise-constant 2D distribution picks a cell and a point
+//! density 0. Cell weights never underestimate a cell's light (a map cell
+//! takes the mean over its texels plus a one-texel border, the sky's sun
+//! disc counts in every cell it may touch): a bright sliver in a cell of
+//! low weight is what makes fireflies; a piecewise-constant 2D distribution picks a cell and a point
 //! in it. `sample` returns the true radiance in the sampled direction and
 //! `pdf` is the exact density of that strategy, so MIS stays unbiased.
 //!
@@ -222,20 +225,9 @@ impl Environment {
             Source::Map(map) => map_cell_means(map),
             Source::Procedural(sky) => {
                 let mut lum = vec![0.0f32; GRID_W * GRID_H];
-                const SUB: usize = 4;
                 for y in 0..GRID_H {
                     for x in 0..GRID_W {
-                        let mut acc = 0.0;
-                        for sy in 0..SUB {
-                            for sx in 0..SUB {
-                                let uv = Vec2::new(
-                                    (x as f32 + (sx as f32 + 0.5) / SUB as f32) / GRID_W as f32,
-                                    (y as f32 + (sy as f32 + 0.5) / SUB as f32) / GRID_H as f32,
-                                );
-                                acc += luminance(sky.radiance(uv_to_dir(uv).0));
-                            }
-                        }
-                        lum[y * GRID_W + x] = acc / (SUB * SUB) as f32;
+                        lum[y * GRID_W + x] = sky.cell_luminance(x, y);
                     }
                 }
                 (GRID_W, GRID_H, lum)
@@ -295,28 +287,34 @@ fn map_lookup(map: &RgbRaster, uv: Vec2) -> Vec3 {
     sanitize(top.lerp(bottom, fy))
 }
 
-/// Mean texel luminance per grid cell (every texel counted once, so a sun
-/// one texel wide still gets its share of samples).
+/// Mean texel luminance per grid cell, over the cell's texels and a
+/// one-texel border: every texel counts, so a sun one texel wide still gets
+/// its share of samples, and the border covers what bilinear lookup spreads
+/// into the neighbouring cell.
 fn map_cell_means(map: &RgbRaster) -> (usize, usize, Vec<f32>) {
     let (w, h) = (map.width as usize, map.height as usize);
     let gw = w.clamp(1, GRID_W);
     let gh = h.clamp(1, GRID_H);
-    let mut sum = vec![0.0f64; gw * gh];
-    let mut count = vec![0u32; gw * gh];
-    for y in 0..h {
-        let cy = y * gh / h;
-        for x in 0..w {
-            let cx = x * gw / w;
-            let l = luminance(sanitize(Vec3::from_array(*map.get(x as u32, y as u32))));
-            sum[cy * gw + cx] += l as f64;
-            count[cy * gw + cx] += 1;
+    let texel: Vec<f32> = map
+        .data
+        .iter()
+        .map(|p| luminance(sanitize(Vec3::from_array(*p))))
+        .collect();
+    let mut lum = vec![0.0f32; gw * gh];
+    for cy in 0..gh {
+        let (y0, y1) = ((cy * h / gh) as i64 - 1, ((cy + 1) * h).div_ceil(gh) as i64 + 1);
+        for cx in 0..gw {
+            let (x0, x1) = ((cx * w / gw) as i64 - 1, ((cx + 1) * w).div_ceil(gw) as i64 + 1);
+            let (mut sum, mut count) = (0.0f64, 0u32);
+            for y in y0.max(0)..y1.min(h as i64) {
+                for x in x0..x1 {
+                    sum += texel[y as usize * w + x.rem_euclid(w as i64) as usize] as f64;
+                    count += 1;
+                }
+            }
+            lum[cy * gw + cx] = if count > 0 { (sum / count as f64) as f32 } else { 0.0 };
         }
     }
-    let lum = sum
-        .iter()
-        .zip(&count)
-        .map(|(s, &c)| if c > 0 { (*s / c as f64) as f32 } else { 0.0 })
-        .collect();
     (gw, gh, lum)
 }
 
@@ -429,6 +427,70 @@ impl ProceduralSky {
             mean += (luminance(p.radiance) * solid_angle / (4.0 * PI)) as f64;
         }
         mean as f32
+    }
+
+    /// Luminance of grid cell (x, y) for importance sampling: never below
+    /// the true mean, so no part of the sky is starved of samples. The
+    /// gradient by subsamples (it is smooth), the patches by their exact
+    /// overlap (rectangles in the same azimuth-elevation grid), the sun by
+    /// its sampled coverage, at least a quarter for every cell its disc may
+    /// touch (slivers of a bright disc are what subsampling misses).
+    fn cell_luminance(&self, x: usize, y: usize) -> f32 {
+        const SUB: usize = 4;
+        const SUN_SUB: usize = 8;
+        let (du, dv) = (1.0 / GRID_W as f32, 1.0 / GRID_H as f32);
+        let (u0, v0) = (x as f32 * du, y as f32 * dv);
+        let mut base = 0.0;
+        for sy in 0..SUB {
+            for sx in 0..SUB {
+                let uv = Vec2::new(
+                    u0 + (sx as f32 + 0.5) / SUB as f32 * du,
+                    v0 + (sy as f32 + 0.5) / SUB as f32 * dv,
+                );
+                base += luminance(self.gradient(uv_to_dir(uv).0.y));
+            }
+        }
+        let mut lum = base / (SUB * SUB) as f32;
+
+        // Cell extent in azimuth and elevation.
+        let az0 = 2.0 * PI * (u0 - 0.5);
+        let az_width = 2.0 * PI * du;
+        let el_top = PI / 2.0 - PI * v0;
+        let el_bottom = PI / 2.0 - PI * (v0 + dv);
+        let cell_solid = az_width * (el_top.sin() - el_bottom.sin());
+        for p in &self.patches {
+            let centre = az0 + az_width / 2.0;
+            let offset = (p.azimuth - centre + PI).rem_euclid(2.0 * PI) - PI;
+            let (a0, a1) = (offset - p.half_azimuth, offset + p.half_azimuth);
+            let az_overlap = (a1.min(az_width / 2.0) - a0.max(-az_width / 2.0)).max(0.0);
+            let top = el_top.min(p.elevation + p.half_elevation);
+            let bottom = el_bottom.max(p.elevation - p.half_elevation);
+            if az_overlap > 0.0 && top > bottom && cell_solid > 0.0 {
+                let fraction = az_overlap * (top.sin() - bottom.sin()) / cell_solid;
+                lum += luminance(p.radiance) * fraction.clamp(0.0, 1.0);
+            }
+        }
+
+        let centre_dir = uv_to_dir(Vec2::new(u0 + du / 2.0, v0 + dv / 2.0)).0;
+        let half_diagonal = (az_width * az_width + (PI * dv) * (PI * dv)).sqrt() / 2.0;
+        let reach = (self.sun_cos_radius.clamp(-1.0, 1.0).acos() + half_diagonal).min(PI);
+        if centre_dir.dot(self.sun_dir) >= reach.cos() {
+            let mut inside = 0;
+            for sy in 0..SUN_SUB {
+                for sx in 0..SUN_SUB {
+                    let uv = Vec2::new(
+                        u0 + (sx as f32 + 0.5) / SUN_SUB as f32 * du,
+                        v0 + (sy as f32 + 0.5) / SUN_SUB as f32 * dv,
+                    );
+                    if uv_to_dir(uv).0.dot(self.sun_dir) >= self.sun_cos_radius {
+                        inside += 1;
+                    }
+                }
+            }
+            let fraction = (inside as f32 / (SUN_SUB * SUN_SUB) as f32).max(0.25);
+            lum += luminance(self.sun_radiance) * fraction;
+        }
+        lum
     }
 
     fn scale(&mut self, k: f32) {

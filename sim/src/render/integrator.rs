@@ -121,7 +121,6 @@ struct Prev {
 }
 
 const ROULETTE_FROM: u32 = 3;
-thread_local! { static DBG: std::cell::RefCell<Vec<String>> = const { std::cell::RefCell::new(Vec::new()) }; }
 
 impl Pass<'_> {
     /// Renders every slot; rows run in parallel on the current rayon pool.
@@ -179,18 +178,7 @@ impl Pass<'_> {
     }
 
     /// Adds one path's contributions to `out` (one entry per slot).
-    pub fn trace(&self, ray: Ray, rng: &mut PixelRng, out: &mut [Vec3]) {
-        let before: Vec<Vec3> = out.to_vec();
-        DBG.with(|d| d.borrow_mut().clear());
-        self.trace_inner(ray, rng, out);
-        for (i, (a, b)) in out.iter().zip(&before).enumerate() {
-            if (*a - *b).max_element() > 15.0 {
-                DBG.with(|d| eprintln!("FIREFLY slot {i} value {} path {:?}", (*a - *b).max_element(), d.borrow()));
-            }
-        }
-    }
-
-    fn trace_inner(&self, mut ray: Ray, rng: &mut PixelRng, out: &mut [Vec3]) {
+    pub fn trace(&self, mut ray: Ray, rng: &mut PixelRng, out: &mut [Vec3]) {
         let mut beta = Vec3::ONE;
         let mut prev: Option<Prev> = None;
         let mut vertices = 0u32;
@@ -235,7 +223,6 @@ impl Pass<'_> {
             let Some(s) = shader.sample(wo, rng.next3()) else {
                 break;
             };
-            DBG.with(|d| d.borrow_mut().push(format!("{}:{:?}{} w{:.2} pdf{:.3}", if on_panel {"panel"} else {"obj"}, s.lobe, if s.delta {"(delta)"} else {""}, s.weight.max_element(), s.pdf)));
             let at = Vertex { p, ng, limit };
             let Some(next) = self.continue_path(at, &shader, s, &mut beta, rng, out, &mut vertices)
             else {
@@ -275,7 +262,6 @@ impl Pass<'_> {
             let start = self.world.offset(p, ng, s.wi);
             let exit = super::subsurface::walk(&self.world, &medium, start, s.wi, rng)?;
             *beta *= exit.weight;
-            DBG.with(|d| d.borrow_mut().push(format!("WALK w{:?}", exit.weight)));
             if !(beta.is_finite() && beta.max_element() > 0.0) || *vertices >= self.max_depth {
                 return None;
             }
@@ -347,7 +333,6 @@ impl Pass<'_> {
             _ => 1.0,
         };
         out[slot] += clamped(beta * le * w, limit);
-        DBG.with(|d| d.borrow_mut().push(format!("ENVHIT beta{:.2} le{:.1} w{:.3}", beta.max_element(), le.max_element(), w)));
     }
 
     fn add_panel_emission(
@@ -447,7 +432,6 @@ impl Pass<'_> {
                     {
                         let w = power_heuristic(es.pdf, e.pdf);
                         out[slot] += clamped(beta * e.value * es.radiance * (w / es.pdf), limit);
-                        DBG.with(|d| d.borrow_mut().push(format!("ENVNEE beta{:.2} f{:.3} L{:.1} w{:.3} pdf{:.3} bpdf{:.3}", beta.max_element(), e.value.max_element(), es.radiance.max_element(), w, es.pdf, e.pdf)));
                     }
                 }
             }

@@ -50,7 +50,7 @@ pub fn walk(
         .max(Vec3::splat(1e-8))
         .min(Vec3::splat(1e12));
     let albedo = medium.albedo.clamp(Vec3::ZERO, Vec3::ONE);
-    let (lo, hi) = world.object.mesh.bounds()?;
+    let (lo, hi) = world.object.bounds?;
     let pad = (hi - lo).max_element() * 1e-3 + world.epsilon(hi);
     let (lo, hi) = (lo - Vec3::splat(pad), hi + Vec3::splat(pad));
     let mut weight = Vec3::ONE;

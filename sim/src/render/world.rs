@@ -34,6 +34,8 @@ pub struct ObjectGeometry<'a> {
     bvh: Bvh,
     /// Largest absolute coordinate of the mesh.
     pub magnitude: f32,
+    /// Axis-aligned bounds of the mesh (`None` when it is empty).
+    pub bounds: Option<(Vec3, Vec3)>,
 }
 
 impl<'a> ObjectGeometry<'a> {
@@ -46,6 +48,7 @@ impl<'a> ObjectGeometry<'a> {
             mesh,
             bvh,
             magnitude,
+            bounds: mesh.bounds(),
         }
     }
 }

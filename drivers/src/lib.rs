@@ -1,0 +1,34 @@
+//! The rig's hardware behind traits: cameras, the light controller, the
+//! pattern projector, the footswitch and an optional turntable.
+//!
+//! - [`traits`]: [`Camera`], [`LightController`], [`Projector`],
+//!   [`Trigger`], [`Positioner`] and the values they exchange;
+//! - [`error`]: [`DriverError`], whose messages name the device;
+//! - [`serial`]: the light controller's line protocol, host and simulated
+//!   board;
+//! - [`convert`]: camera pixel formats (YUYV, MJPG, GREY, RGB24) to linear
+//!   RGB, and the stale-frame rule after a change;
+//! - `v4l2` (feature `hardware`): V4L2 cameras over `v4l`;
+//! - `footswitch`: USB footswitches read through evdev with an exclusive
+//!   grab;
+//! - `sim_rig` (feature `simulated-hardware`): the same traits backed by
+//!   the renderer and a scene, with fault injection.
+//!
+//! Boundaries: talks to devices and renders simulated photos; knows nothing
+//! of scan bundles beyond the pattern and raster types, and nothing of
+//! estimation. Crate choices: `serialport` (no libudev), `libc` for the
+//! pseudo-terminal, evdev and clock calls, `zune-jpeg` (pure Rust) for MJPG,
+//! and `v4l` only behind `hardware` because its bindings need libclang.
+
+pub mod convert;
+pub mod error;
+pub mod serial;
+#[cfg(feature = "simulated-hardware")]
+pub mod sim_rig;
+pub mod traits;
+
+pub use error::DriverError;
+pub use traits::{
+    monotonic_now, Camera, CameraSettings, Checker, Frame, Level, LightController, LightId, LightState,
+    Positioner, Press, Projector, ProjectorPattern, Trigger,
+};

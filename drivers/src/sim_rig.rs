@@ -1,0 +1,459 @@
+//! The simulated rig: every driver trait backed by the renderer and a
+//! scene, for the daemon's end-to-end tests and demos without hardware.
+//!
+//! It is a state machine: the light controller is the real host protocol
+//! talking to the simulated board (`crate::serial::board`) over an
+//! in-memory line, the projector and the turntable set shared state, and
+//! [`SimCamera::capture`] renders exactly what the board's outputs, the
+//! projector's pattern and the position are at that moment. A sequencer
+//! that forgets to switch a flash on gets a photo without it. Faults are
+//! injected through [`SimFaults`]: the camera lost after N frames, the
+//! board going silent (serial timeouts), a flash that acknowledges but does
+//! not fire, a full disk ([`SimDisk`]).
+//!
+//! Boundaries: renders through `matscan_sim::render` only; writes nothing
+//! but what [`SimDisk`] is asked to.
+
+use crate::error::DriverError;
+use crate::serial::{memory_pair, Board, BoardConfig, BoardFaults, HostConfig, RunningBoard, SerialLights};
+use crate::traits::{
+    monotonic_now, Camera, CameraSettings, LightController, LightId, LightState, Positioner, Press, Projector,
+    ProjectorPattern, Trigger,
+};
+use matscan_scan::raster::RgbRaster;
+use matscan_sim::render::{CaptureSpec, RenderOptions, Renderer};
+use matscan_sim::scene::Scene;
+use std::path::Path;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::mpsc::{channel, Receiver, RecvTimeoutError, Sender};
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::time::Duration;
+
+/// Device names of the simulated parts, as they appear in errors.
+pub const CAMERA_ID: &str = "sim:camera";
+pub const LIGHTS_ID: &str = "sim:lights";
+pub const PROJECTOR_ID: &str = "sim:projector";
+pub const POSITIONER_ID: &str = "sim:turntable";
+pub const TRIGGER_ID: &str = "sim:footswitch";
+
+/// Faults to inject.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct SimFaults {
+    /// The camera fails every capture after this many frames.
+    pub camera_lost_after: Option<u64>,
+    /// The light controller's faults: `silent_after` gives serial
+    /// timeouts, `dead_lights` flashes that acknowledge but do not fire,
+    /// `reset_on` board resets.
+    pub board: BoardFaults,
+    /// Bytes [`SimDisk`] accepts before reporting a full disk.
+    pub disk_capacity: Option<u64>,
+}
+
+/// How the simulated rig renders.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SimConfig {
+    /// Photo size; the scene's intrinsics are scaled to it (the field of
+    /// view is kept).
+    pub width: u32,
+    pub height: u32,
+    /// Paths per pixel.
+    pub samples: u32,
+    pub seed: u64,
+    /// Clip photos at 1.0, as a sensor saturates.
+    pub saturate: bool,
+    /// Light-controller timing (short timeouts keep fault tests quick).
+    pub host: HostConfig,
+    pub faults: SimFaults,
+}
+
+impl Default for SimConfig {
+    fn default() -> Self {
+        SimConfig {
+            width: 64,
+            height: 64,
+            samples: 4,
+            seed: 0,
+            saturate: true,
+            host: HostConfig {
+                reply_timeout: Duration::from_millis(100),
+                attempts: 2,
+                ..HostConfig::default()
+            },
+            faults: SimFaults::default(),
+        }
+    }
+}
+
+/// What the projector and the turntable are doing.
+#[derive(Debug)]
+struct Stage {
+    pattern: ProjectorPattern,
+    position: usize,
+}
+
+/// The parts of a simulated rig, each usable on its own.
+pub struct SimulatedRig {
+    pub camera: SimCamera,
+    pub lights: SimLights,
+    pub projector: SimProjector,
+    pub positioner: SimPositioner,
+    pub trigger: SimTrigger,
+    /// Presses the footswitch.
+    pub footswitch: FootswitchButton,
+    pub disk: SimDisk,
+}
+
+impl SimulatedRig {
+    /// Powers the rig up: the board boots and the lights connect to it.
+    pub fn new(scene: Scene, config: SimConfig) -> Result<SimulatedRig, DriverError> {
+        let scene = Arc::new(scaled(scene, config.width, config.height));
+        if scene.rig.positions.is_empty() {
+            return Err(DriverError::NoSuchPosition {
+                device: POSITIONER_ID.to_string(),
+                index: 0,
+                count: 0,
+            });
+        }
+        let stage = Arc::new(Mutex::new(Stage {
+            pattern: ProjectorPattern::Black,
+            position: 0,
+        }));
+        let (host_end, board_end) = memory_pair(LIGHTS_ID, "sim:board");
+        let board = RunningBoard::spawn(
+            Box::new(board_end),
+            Board::new(BoardConfig::default(), config.faults.board.clone()),
+        );
+        let outputs = board.shared();
+        let lights = SerialLights::connect(Box::new(host_end), config.host.clone())?;
+        let exposure = scene.rig.positions[0].exposure_s;
+        let settings = CameraSettings::new(exposure, 1.0, 5000).unwrap_or_default();
+        let (tx, rx) = channel();
+        Ok(SimulatedRig {
+            camera: SimCamera {
+                scene: scene.clone(),
+                stage: stage.clone(),
+                board: outputs,
+                config: config.clone(),
+                settings,
+                frames: 0,
+            },
+            lights: SimLights {
+                host: lights,
+                board,
+            },
+            projector: SimProjector {
+                scene: scene.clone(),
+                stage: stage.clone(),
+            },
+            positioner: SimPositioner { scene, stage },
+            trigger: SimTrigger { presses: rx },
+            footswitch: FootswitchButton { tx },
+            disk: SimDisk {
+                capacity: config.faults.disk_capacity,
+                used: AtomicU64::new(0),
+            },
+        })
+    }
+}
+
+/// The scene with its camera intrinsics scaled to `width` x `height`.
+fn scaled(mut scene: Scene, width: u32, height: u32) -> Scene {
+    let k = &mut scene.rig.intrinsics;
+    if width > 0 && height > 0 && k.width > 0 && k.height > 0 {
+        let (sx, sy) = (width as f64 / k.width as f64, height as f64 / k.height as f64);
+        k.fx *= sx;
+        k.cx *= sx;
+        k.fy *= sy;
+        k.cy *= sy;
+        k.width = width;
+        k.height = height;
+    }
+    scene
+}
+
+fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
+    // Every update under these locks is a single assignment, so a panic
+    // elsewhere cannot leave them half-written.
+    m.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+/// The camera: renders the rig's state at the moment of capture.
+pub struct SimCamera {
+    scene: Arc<Scene>,
+    stage: Arc<Mutex<Stage>>,
+    board: Arc<Mutex<Board>>,
+    config: SimConfig,
+    settings: CameraSettings,
+    frames: u64,
+}
+
+impl SimCamera {
+    /// What the lights and projector emit now: `(light name, level)` per rig
+    /// term that is on.
+    fn lit_terms(&self, position: usize) -> Vec<(CaptureSpec, f32)> {
+        let rig = &self.scene.rig.positions[position];
+        let (board, pattern) = (lock(&self.board), lock(&self.stage).pattern);
+        let mut terms = Vec::new();
+        for light in LightId::ALL {
+            let level = board.output(light) as f32 / 255.0;
+            let present = match light {
+                LightId::Backlight => rig.backlight.name == light.name(),
+                _ => rig.flashes.iter().any(|f| f.name == light.name()),
+            };
+            if level > 0.0 && present {
+                terms.push((CaptureSpec::new(light.name(), &[light.name()], None), level));
+            }
+        }
+        if pattern != ProjectorPattern::Black {
+            let name = rig.projector.name.as_str();
+            terms.push((CaptureSpec::new(name, &[name], Some(pattern.to_pattern())), 1.0));
+        }
+        terms
+    }
+}
+
+impl Camera for SimCamera {
+    fn id(&self) -> &str {
+        CAMERA_ID
+    }
+
+    fn resolution(&self) -> (u32, u32) {
+        (self.scene.rig.intrinsics.width, self.scene.rig.intrinsics.height)
+    }
+
+    fn lock(&mut self, settings: CameraSettings) -> Result<(), DriverError> {
+        self.settings = settings;
+        Ok(())
+    }
+
+    fn settings(&self) -> CameraSettings {
+        self.settings
+    }
+
+    /// Renders are exact snapshots of the state, so nothing is ever stale.
+    fn scene_changed(&mut self, _at: Duration) {}
+
+    fn capture(&mut self) -> Result<crate::Frame, DriverError> {
+        if let Some(n) = self.config.faults.camera_lost_after {
+            if self.frames >= n {
+                return Err(DriverError::CameraLost {
+                    device: CAMERA_ID.to_string(),
+                    frames: self.frames,
+                    reason: "injected fault: the camera was unplugged".to_string(),
+                });
+            }
+        }
+        let position = lock(&self.stage).position;
+        let terms = self.lit_terms(position);
+        let render_err = |e: matscan_sim::render::SimError| DriverError::Render {
+            device: CAMERA_ID.to_string(),
+            reason: e.to_string(),
+        };
+        let renderer = Renderer::new(&self.scene).map_err(render_err)?;
+        let specs: Vec<CaptureSpec> = terms.iter().map(|(s, _)| s.clone()).collect();
+        let opts = RenderOptions {
+            samples: self.config.samples.max(1),
+            seed: self.config.seed,
+            ..RenderOptions::default()
+        };
+        let images = renderer.render_position(position, &specs, &opts).map_err(render_err)?;
+        let rig_exposure = self.scene.rig.positions[position].exposure_s;
+        let rig_exposure = if rig_exposure.is_finite() && rig_exposure > 0.0 {
+            rig_exposure
+        } else {
+            1.0
+        };
+        let scale = self.settings.exposure_s() * self.settings.gain() / rig_exposure;
+        let mut rgb: RgbRaster = images.ambient;
+        for ((_, level), light) in terms.iter().zip(&images.light_only) {
+            for (o, v) in rgb.data.iter_mut().zip(&light.data) {
+                for c in 0..3 {
+                    o[c] += level * v[c];
+                }
+            }
+        }
+        for p in rgb.data.iter_mut() {
+            for v in p.iter_mut() {
+                let x = *v * scale;
+                let x = if x.is_finite() { x.max(0.0) } else { 0.0 };
+                *v = if self.config.saturate { x.min(1.0) } else { x };
+            }
+        }
+        self.frames += 1;
+        Ok(crate::Frame {
+            rgb,
+            timestamp: monotonic_now(),
+            exposure_s: self.settings.exposure_s(),
+            gain: self.settings.gain(),
+            sequence: self.frames,
+        })
+    }
+}
+
+/// The light controller: the real host protocol against the simulated
+/// board.
+pub struct SimLights {
+    // Dropped first: the host says ALLOFF while the board still runs.
+    host: SerialLights,
+    board: RunningBoard,
+}
+
+impl SimLights {
+    /// The board's state (what each light really emits, resets, ...).
+    pub fn board(&self) -> MutexGuard<'_, Board> {
+        self.board.board()
+    }
+}
+
+impl LightController for SimLights {
+    fn id(&self) -> &str {
+        self.host.id()
+    }
+
+    fn set(&mut self, light: LightId, state: LightState) -> Result<(), DriverError> {
+        self.host.set(light, state)
+    }
+
+    fn all_off(&mut self) -> Result<(), DriverError> {
+        self.host.all_off()
+    }
+
+    fn state(&self, light: LightId) -> LightState {
+        self.host.state(light)
+    }
+}
+
+/// The projector: its pattern is what the camera renders.
+pub struct SimProjector {
+    scene: Arc<Scene>,
+    stage: Arc<Mutex<Stage>>,
+}
+
+impl Projector for SimProjector {
+    fn id(&self) -> &str {
+        PROJECTOR_ID
+    }
+
+    fn resolution(&self) -> (u32, u32) {
+        let position = lock(&self.stage).position;
+        let k = &self.scene.rig.positions[position].projector.intrinsics;
+        (k.width, k.height)
+    }
+
+    fn show(&mut self, pattern: ProjectorPattern) -> Result<(), DriverError> {
+        lock(&self.stage).pattern = pattern;
+        Ok(())
+    }
+
+    fn pattern(&self) -> ProjectorPattern {
+        lock(&self.stage).pattern
+    }
+}
+
+/// The turntable: steps through the scene's rig positions.
+pub struct SimPositioner {
+    scene: Arc<Scene>,
+    stage: Arc<Mutex<Stage>>,
+}
+
+impl Positioner for SimPositioner {
+    fn id(&self) -> &str {
+        POSITIONER_ID
+    }
+
+    fn count(&self) -> usize {
+        self.scene.rig.positions.len()
+    }
+
+    fn position(&self) -> usize {
+        lock(&self.stage).position
+    }
+
+    fn advance(&mut self) -> Result<usize, DriverError> {
+        let count = self.count();
+        let mut stage = lock(&self.stage);
+        stage.position = (stage.position + 1) % count;
+        Ok(stage.position)
+    }
+}
+
+/// The footswitch: presses come from a [`FootswitchButton`].
+pub struct SimTrigger {
+    presses: Receiver<Press>,
+}
+
+/// Presses the simulated footswitch (from a test or a demo's keyboard).
+#[derive(Clone)]
+pub struct FootswitchButton {
+    tx: Sender<Press>,
+}
+
+impl FootswitchButton {
+    pub fn press(&self) {
+        // The trigger may be gone (the sequencer finished): nobody to tell.
+        let _ = self.tx.send(Press {
+            timestamp: monotonic_now(),
+        });
+    }
+}
+
+impl Trigger for SimTrigger {
+    fn id(&self) -> &str {
+        TRIGGER_ID
+    }
+
+    fn wait(&mut self, timeout: Duration) -> Result<Option<Press>, DriverError> {
+        match self.presses.recv_timeout(timeout) {
+            Ok(p) => Ok(Some(p)),
+            Err(RecvTimeoutError::Timeout) => Ok(None),
+            Err(RecvTimeoutError::Disconnected) => Err(DriverError::Disconnected {
+                device: TRIGGER_ID.to_string(),
+                waited: timeout,
+            }),
+        }
+    }
+}
+
+/// The disk the sequencer writes scans to, with a capacity for the
+/// full-disk fault.
+#[derive(Debug)]
+pub struct SimDisk {
+    capacity: Option<u64>,
+    used: AtomicU64,
+}
+
+impl SimDisk {
+    /// Claims `bytes` for `path`; fails as a full disk would once the
+    /// capacity is used up.
+    pub fn reserve(&self, path: &Path, bytes: u64) -> Result<(), DriverError> {
+        let used = self.used.fetch_add(bytes, Ordering::SeqCst);
+        match self.capacity {
+            Some(cap) if used.saturating_add(bytes) > cap => {
+                self.used.fetch_sub(bytes, Ordering::SeqCst);
+                Err(DriverError::DiskFull {
+                    path: path.to_path_buf(),
+                    written: cap.saturating_sub(used),
+                    wanted: bytes,
+                })
+            }
+            _ => Ok(()),
+        }
+    }
+
+    /// Writes `bytes` to `path` if the disk has room.
+    pub fn write(&self, path: &Path, bytes: &[u8]) -> Result<(), DriverError> {
+        self.reserve(path, bytes.len() as u64)?;
+        std::fs::write(path, bytes).map_err(|e| {
+            self.used.fetch_sub(bytes.len() as u64, Ordering::SeqCst);
+            DriverError::io(&path.display().to_string(), "writing", e)
+        })
+    }
+
+    /// Bytes written so far.
+    pub fn used(&self) -> u64 {
+        self.used.load(Ordering::SeqCst)
+    }
+}
+
+#[cfg(test)]
+mod tests;
