@@ -9,8 +9,8 @@
 //! - [`convert`]: camera pixel formats (YUYV, MJPG, GREY, RGB24) to linear
 //!   RGB, and the stale-frame rule after a change;
 //! - `v4l2` (feature `hardware`): V4L2 cameras over `v4l`;
-//! - `footswitch`: USB footswitches read through evdev with an exclusive
-//!   grab;
+//! - [`footswitch`]: USB footswitches read through evdev with an exclusive
+//!   grab (only `libc`, so it builds without `hardware`);
 //! - `sim_rig` (feature `simulated-hardware`): the same traits backed by
 //!   the renderer and a scene, with fault injection.
 //!
@@ -22,13 +22,16 @@
 
 pub mod convert;
 pub mod error;
+pub mod footswitch;
 pub mod serial;
 #[cfg(feature = "simulated-hardware")]
 pub mod sim_rig;
 pub mod traits;
+#[cfg(feature = "hardware")]
+pub mod v4l2;
 
 pub use error::DriverError;
 pub use traits::{
-    monotonic_now, Camera, CameraSettings, Checker, Frame, Level, LightController, LightId, LightState,
-    Positioner, Press, Projector, ProjectorPattern, Trigger,
+    monotonic_now, Camera, CameraSettings, Checker, Frame, Level, LightController, LightId,
+    LightState, Positioner, Press, Projector, ProjectorPattern, Trigger,
 };

@@ -15,10 +15,12 @@
 //! but what [`SimDisk`] is asked to.
 
 use crate::error::DriverError;
-use crate::serial::{memory_pair, Board, BoardConfig, BoardFaults, HostConfig, RunningBoard, SerialLights};
+use crate::serial::{
+    memory_pair, Board, BoardConfig, BoardFaults, HostConfig, RunningBoard, SerialLights,
+};
 use crate::traits::{
-    monotonic_now, Camera, CameraSettings, LightController, LightId, LightState, Positioner, Press, Projector,
-    ProjectorPattern, Trigger,
+    monotonic_now, Camera, CameraSettings, LightController, LightId, LightState, Positioner, Press,
+    Projector, ProjectorPattern, Trigger,
 };
 use matscan_scan::raster::RgbRaster;
 use matscan_sim::render::{CaptureSpec, RenderOptions, Renderer};
@@ -160,7 +162,10 @@ impl SimulatedRig {
 fn scaled(mut scene: Scene, width: u32, height: u32) -> Scene {
     let k = &mut scene.rig.intrinsics;
     if width > 0 && height > 0 && k.width > 0 && k.height > 0 {
-        let (sx, sy) = (width as f64 / k.width as f64, height as f64 / k.height as f64);
+        let (sx, sy) = (
+            width as f64 / k.width as f64,
+            height as f64 / k.height as f64,
+        );
         k.fx *= sx;
         k.cx *= sx;
         k.fy *= sy;
@@ -206,7 +211,10 @@ impl SimCamera {
         }
         if pattern != ProjectorPattern::Black {
             let name = rig.projector.name.as_str();
-            terms.push((CaptureSpec::new(name, &[name], Some(pattern.to_pattern())), 1.0));
+            terms.push((
+                CaptureSpec::new(name, &[name], Some(pattern.to_pattern())),
+                1.0,
+            ));
         }
         terms
     }
@@ -218,7 +226,10 @@ impl Camera for SimCamera {
     }
 
     fn resolution(&self) -> (u32, u32) {
-        (self.scene.rig.intrinsics.width, self.scene.rig.intrinsics.height)
+        (
+            self.scene.rig.intrinsics.width,
+            self.scene.rig.intrinsics.height,
+        )
     }
 
     fn lock(&mut self, settings: CameraSettings) -> Result<(), DriverError> {
@@ -256,7 +267,9 @@ impl Camera for SimCamera {
             seed: self.config.seed,
             ..RenderOptions::default()
         };
-        let images = renderer.render_position(position, &specs, &opts).map_err(render_err)?;
+        let images = renderer
+            .render_position(position, &specs, &opts)
+            .map_err(render_err)?;
         let rig_exposure = self.scene.rig.positions[position].exposure_s;
         let rig_exposure = if rig_exposure.is_finite() && rig_exposure > 0.0 {
             rig_exposure

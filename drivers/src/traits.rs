@@ -22,7 +22,10 @@ pub fn monotonic_now() -> Duration {
     // SAFETY: `ts` is a valid, writable timespec; CLOCK_MONOTONIC always
     // exists on Linux, so the call cannot fail.
     unsafe { libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut ts) };
-    Duration::new(ts.tv_sec.max(0) as u64, ts.tv_nsec.clamp(0, 999_999_999) as u32)
+    Duration::new(
+        ts.tv_sec.max(0) as u64,
+        ts.tv_nsec.clamp(0, 999_999_999) as u32,
+    )
 }
 
 /// A light or projector level in `0..=1`, finite by construction.
@@ -154,9 +157,12 @@ impl ProjectorPattern {
     /// number of pixels.
     pub fn from_pattern(pattern: &Pattern) -> Option<ProjectorPattern> {
         let level = |v: f64| Level::new(v as f32);
-        let whole = |v: f64| (v.is_finite() && v >= 0.0 && v.fract() == 0.0 && v <= u32::MAX as f64).then_some(v as u32);
+        let whole = |v: f64| {
+            (v.is_finite() && v >= 0.0 && v.fract() == 0.0 && v <= u32::MAX as f64)
+                .then_some(v as u32)
+        };
         match *pattern {
-            Pattern::Uniform { level: l } if l == 0.0 => Some(ProjectorPattern::Black),
+            Pattern::Uniform { level: 0.0 } => Some(ProjectorPattern::Black),
             Pattern::Uniform { level: l } => level(l).map(ProjectorPattern::Uniform),
             Pattern::Checker {
                 period_px,

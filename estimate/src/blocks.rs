@@ -18,8 +18,8 @@
 //! Dropout, used by the thesis for regularisation in training, is not part
 //! of inference and is left to the trainer.
 //!
-//! 1x1 convolutions run as a matrix product on the flattened image, which
-//! was up to twice as fast as the backends' convolution kernels.
+//! 1x1 convolutions use the backend's convolution, whose pointwise fast
+//! path measured 1.6x faster on flex than a reshape plus matrix product.
 //!
 //! Out of scope: the pyramid, fusion and which block runs when (see
 //! `network`).
@@ -67,24 +67,17 @@ impl Conv {
         self.weight.val().dims()
     }
 
-    /// A 1x1 convolution over input channels `range` of the weight, as one
-    /// matrix product; adds the bias only when asked.
+    /// A 1x1 convolution with input channels `range` of the weight; adds
+    /// the bias only when asked.
     fn pointwise(&self, x: Tensor<4>, range: std::ops::Range<usize>, with_bias: bool) -> Tensor<4> {
-        let [n, c, h, w] = x.dims();
-        let [out, all_in, _, _] = self.weight_shape();
+        let all_in = self.weight_shape()[1];
         let weight = if range.start == 0 && range.end == all_in {
             self.weight.val()
         } else {
-            self.weight.val().slice([0..out, range, 0..1, 0..1])
+            self.weight.val().narrow(1, range.start, range.len())
         };
-        let weight: Tensor<3> = weight.reshape([1, out, c]);
-        let y = weight.matmul(x.reshape([n, c, h * w]));
-        let y = if with_bias {
-            y + self.bias.val().reshape([1, out, 1])
-        } else {
-            y
-        };
-        y.reshape([n, out, h, w])
+        let bias = with_bias.then(|| self.bias.val());
+        conv2d(x, weight, bias, ConvOptions::new([1, 1], [0, 0], [1, 1], 1))
     }
 
     /// A spatial convolution, zero padded to keep the image size.
@@ -314,14 +307,22 @@ mod tests {
     }
 
     #[test]
-    fn pointwise_matmul_equals_a_1x1_convolution() {
+    fn pointwise_on_a_channel_range_equals_a_convolution_of_those_channels() {
         let device = cpu_device();
         let conv = Conv::new(5, 7, [1, 1], &device);
-        let x = random([2, 5, 6, 4], &device);
-        let by_matmul = values(conv.pointwise(x.clone(), 0..5, true));
-        let by_conv = values(conv.spatial(x));
-        assert_eq!(by_matmul.len(), 2 * 7 * 6 * 4);
-        for (a, b) in by_matmul.iter().zip(&by_conv) {
+        let middle = random([2, 3, 6, 4], &device);
+        // The same three channels, with zeros in the channels left out.
+        let zeros = Tensor::<4>::zeros([2, 1, 6, 4], &device);
+        let padded = Tensor::cat(vec![zeros.clone(), middle.clone(), zeros], 1);
+        let by_range = values(conv.pointwise(middle, 1..4, false));
+        let by_full = values(conv.pointwise(padded.clone(), 0..5, false));
+        assert_eq!(by_range.len(), 2 * 7 * 6 * 4);
+        for (a, b) in by_range.iter().zip(&by_full) {
+            assert!((a - b).abs() < 1e-5, "{a} vs {b}");
+        }
+        // With the bias, it is the spatial path's 1x1 convolution.
+        let with_bias = values(conv.pointwise(padded.clone(), 0..5, true));
+        for (a, b) in with_bias.iter().zip(&values(conv.spatial(padded))) {
             assert!((a - b).abs() < 1e-5, "{a} vs {b}");
         }
     }

@@ -41,9 +41,9 @@ pub const THESIS_WIDTH: usize = 128;
 pub const THESIS_TRACK: usize = 32;
 /// Shipped width and track of roughness and basecolor, the networks with
 /// the most inputs and the most to model.
-pub const SHIPPED_WIDTH_MAIN: usize = 32;
+pub const SHIPPED_WIDTH_MAIN: usize = 64;
 /// See [`SHIPPED_WIDTH_MAIN`].
-pub const SHIPPED_TRACK_MAIN: usize = 8;
+pub const SHIPPED_TRACK_MAIN: usize = 16;
 /// Shipped width and track of metallic, transmission and subsurface.
 pub const SHIPPED_WIDTH_SMALL: usize = 32;
 /// See [`SHIPPED_WIDTH_SMALL`].

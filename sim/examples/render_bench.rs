@@ -6,7 +6,7 @@
 //!     at 128 x 128: RMSE of the photos against a reference with 16 times
 //!     the default samples.
 //!
-//! `cargo run --release -p matscan-sim --example render_bench [seed] [threads] [--noise-only | --scan-only] [--kind=KIND]`
+//! `cargo run --release -p matscan-sim --example render_bench [seed] [threads] [--noise-only | --scan-only] [--kind=KIND] [--samples=N]`
 
 use matscan_sim::render::{
     write_scan_bundle, CaptureSpec, RenderOptions, Renderer, SimOptions, DEFAULT_SAMPLES,
@@ -23,6 +23,11 @@ fn main() {
         .iter()
         .find_map(|a| a.strip_prefix("--kind="))
         .and_then(|k| k.parse().ok());
+    let samples: u32 = all
+        .iter()
+        .find_map(|a| a.strip_prefix("--samples="))
+        .and_then(|k| k.parse().ok())
+        .unwrap_or(DEFAULT_SAMPLES);
     let args: Vec<String> = all.into_iter().filter(|a| !a.starts_with("--")).collect();
     let seed: u64 = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(7);
     let threads: Option<usize> = args.get(2).and_then(|s| s.parse().ok());
@@ -38,7 +43,7 @@ fn main() {
 
     let kind = kind.unwrap_or(SceneKind::Multimat);
     if !noise_only {
-        full_scan(seed, kind);
+        full_scan(seed, kind, samples);
     }
     if !scan_only {
         time_against_noise(seed, kind);
@@ -46,7 +51,7 @@ fn main() {
 }
 
 /// (a) The full scan.
-fn full_scan(seed: u64, kind: SceneKind) {
+fn full_scan(seed: u64, kind: SceneKind, samples: u32) {
     let scene = generate(&SceneOptions {
         seed,
         kind,
@@ -55,11 +60,15 @@ fn full_scan(seed: u64, kind: SceneKind) {
     let dir = std::env::temp_dir().join(format!("matscan-render-bench-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     let start = Instant::now();
-    let result = write_scan_bundle(&scene, &SimOptions::default(), &dir);
+    let opts = SimOptions {
+        samples,
+        ..SimOptions::default()
+    };
+    let result = write_scan_bundle(&scene, &opts, &dir);
     let secs = start.elapsed().as_secs_f64();
     match result {
         Ok(bundle) => println!(
-            "full scan `{}` ({}): {} positions x {} captures at {}x{} + truth: {secs:.1} s",
+            "full scan `{}` ({}), {samples} spp: {} positions x {} captures at {}x{} + truth: {secs:.1} s",
             scene.name,
             scene.kind,
             bundle.manifest.positions.len(),
@@ -128,6 +137,18 @@ fn time_against_noise(seed: u64, kind: SceneKind) {
         .sum::<f64>()
         / (reference.photos.len() * 128 * 128 * 3) as f64;
     println!("mean photo value {mean:.4}");
+    let (_, photos_secs) = render(DEFAULT_SAMPLES, 1);
+    let start = Instant::now();
+    let illum = renderer.render_illum(0, &captures[1..4], &RenderOptions::default());
+    let illum_secs = start.elapsed().as_secs_f64();
+    let start = Instant::now();
+    let truth = renderer.render_truth(0);
+    let truth_secs = start.elapsed().as_secs_f64();
+    if illum.is_ok() && truth.is_ok() {
+        println!(
+            "at {DEFAULT_SAMPLES} spp: photo pass {photos_secs:.2} s, illum pass {illum_secs:.2} s, truth {truth_secs:.3} s"
+        );
+    }
     let names: Vec<&str> = captures.iter().map(|c| c.name.as_str()).collect();
     println!(
         "{:>6} {:>8} {:>10} {:>11}   relative RMSE per capture: {}",

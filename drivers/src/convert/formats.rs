@@ -123,22 +123,37 @@ pub fn bt601_to_rgb(y: u8, u: u8, v: u8) -> [f32; 3] {
     let r = c + 1.402 * scale * e;
     let g = c - (0.114 * 1.772 / 0.587) * scale * d - (0.299 * 1.402 / 0.587) * scale * e;
     let b = c + 1.772 * scale * d;
-    [r.clamp(0.0, 255.0), g.clamp(0.0, 255.0), b.clamp(0.0, 255.0)]
+    [
+        r.clamp(0.0, 255.0),
+        g.clamp(0.0, 255.0),
+        b.clamp(0.0, 255.0),
+    ]
 }
 
 /// The curve at a fractional code value (linear interpolation in the LUT).
 fn linearize(lut: &[f32; 256], code: f32) -> f32 {
-    let c = if code.is_finite() { code.clamp(0.0, 255.0) } else { 0.0 };
+    let c = if code.is_finite() {
+        code.clamp(0.0, 255.0)
+    } else {
+        0.0
+    };
     let i = (c.floor() as usize).min(254);
     let t = c - i as f32;
     lut[i] + (lut[i + 1] - lut[i]) * t
 }
 
-fn decode_mjpg(device: &str, width: u32, height: u32, bytes: &[u8], lut: &[f32; 256]) -> Result<RgbRaster, DriverError> {
+fn decode_mjpg(
+    device: &str,
+    width: u32,
+    height: u32,
+    bytes: &[u8],
+    lut: &[f32; 256],
+) -> Result<RgbRaster, DriverError> {
     use zune_jpeg::zune_core::colorspace::ColorSpace;
     use zune_jpeg::zune_core::options::DecoderOptions;
     let options = DecoderOptions::default().jpeg_set_out_colorspace(ColorSpace::RGB);
-    let mut decoder = zune_jpeg::JpegDecoder::new_with_options(std::io::Cursor::new(bytes), options);
+    let mut decoder =
+        zune_jpeg::JpegDecoder::new_with_options(std::io::Cursor::new(bytes), options);
     let rgb = decoder.decode().map_err(|e| DriverError::Decode {
         device: device.to_string(),
         reason: format!("MJPG: {e:?}"),
@@ -173,10 +188,15 @@ mod tests {
     fn yuyv_white_black_and_primaries() {
         // Two pixel pairs: white|black, then pure red (BT.601: Y 81, U 90, V 240).
         let bytes = [235, 128, 16, 128, 81, 90, 81, 240];
-        let img = decode_frame("cam", PixelFormat::Yuyv, 2, 2, 0, &bytes, &Response::Linear).unwrap();
+        let img =
+            decode_frame("cam", PixelFormat::Yuyv, 2, 2, 0, &bytes, &Response::Linear).unwrap();
         assert!(close(img.data[0], [1.0; 3], 1e-3), "{:?}", img.data[0]);
         assert!(close(img.data[1], [0.0; 3], 1e-3), "{:?}", img.data[1]);
-        assert!(close(img.data[2], [1.0, 0.0, 0.0], 0.01), "{:?}", img.data[2]);
+        assert!(
+            close(img.data[2], [1.0, 0.0, 0.0], 0.01),
+            "{:?}",
+            img.data[2]
+        );
         assert_eq!(img.data[2], img.data[3]);
     }
 
@@ -184,18 +204,29 @@ mod tests {
     fn yuyv_mid_grey_is_linearised_by_srgb() {
         // Y' = 16 + 219 * 128/255 encodes code value 128.
         let y = (16.0f32 + 219.0 * 128.0 / 255.0).round() as u8;
-        let img = decode_frame("cam", PixelFormat::Yuyv, 2, 1, 0, &[y, 128, y, 128], &Response::Srgb).unwrap();
+        let img = decode_frame(
+            "cam",
+            PixelFormat::Yuyv,
+            2,
+            1,
+            0,
+            &[y, 128, y, 128],
+            &Response::Srgb,
+        )
+        .unwrap();
         assert!((img.data[0][1] - 0.2158).abs() < 0.003, "{:?}", img.data[0]);
     }
 
     #[test]
     fn grey_and_rgb24_with_row_padding() {
         let grey = [255, 0, 9, 9, 128, 64, 9, 9];
-        let img = decode_frame("cam", PixelFormat::Grey, 2, 2, 4, &grey, &Response::Linear).unwrap();
+        let img =
+            decode_frame("cam", PixelFormat::Grey, 2, 2, 4, &grey, &Response::Linear).unwrap();
         assert_eq!(img.data[0], [1.0; 3]);
         assert_eq!(img.data[2], [128.0 / 255.0; 3]);
         let rgb = [255, 0, 0, 0, 255, 0, 7, 7, 0, 0, 255, 255, 255, 255, 7, 7];
-        let img = decode_frame("cam", PixelFormat::Rgb24, 2, 2, 8, &rgb, &Response::Linear).unwrap();
+        let img =
+            decode_frame("cam", PixelFormat::Rgb24, 2, 2, 8, &rgb, &Response::Linear).unwrap();
         assert_eq!(img.data[1], [0.0, 1.0, 0.0]);
         assert_eq!(img.data[2], [0.0, 0.0, 1.0]);
         assert_eq!(img.data[3], [1.0; 3]);
@@ -203,32 +234,66 @@ mod tests {
 
     #[test]
     fn short_buffers_name_the_device_and_size() {
-        let err = decode_frame("/dev/v4l/by-id/usb-cam", PixelFormat::Rgb24, 4, 4, 0, &[0; 10], &Response::Srgb).unwrap_err();
+        let err = decode_frame(
+            "/dev/v4l/by-id/usb-cam",
+            PixelFormat::Rgb24,
+            4,
+            4,
+            0,
+            &[0; 10],
+            &Response::Srgb,
+        )
+        .unwrap_err();
         let msg = err.to_string();
-        assert!(msg.contains("/dev/v4l/by-id/usb-cam") && msg.contains("48") && msg.contains("10"), "{msg}");
+        assert!(
+            msg.contains("/dev/v4l/by-id/usb-cam") && msg.contains("48") && msg.contains("10"),
+            "{msg}"
+        );
         assert!(decode_frame("cam", PixelFormat::Yuyv, 3, 1, 0, &[0; 6], &Response::Srgb).is_err());
     }
 
     #[test]
     fn mjpg_decodes_to_linear_rgb() {
         let (w, h) = (16u16, 8u16);
-        let pixels: Vec<u8> = (0..w as usize * h as usize).flat_map(|_| [200u8, 100, 50]).collect();
+        let pixels: Vec<u8> = (0..w as usize * h as usize)
+            .flat_map(|_| [200u8, 100, 50])
+            .collect();
         let mut jpeg = Vec::new();
         let mut enc = jpeg_encoder::Encoder::new(&mut jpeg, 100);
         enc.set_sampling_factor(jpeg_encoder::SamplingFactor::F_1_1);
-        enc.encode(&pixels, w, h, jpeg_encoder::ColorType::Rgb).unwrap();
+        enc.encode(&pixels, w, h, jpeg_encoder::ColorType::Rgb)
+            .unwrap();
         let img = decode_frame("cam", PixelFormat::Mjpg, 16, 8, 0, &jpeg, &Response::Srgb).unwrap();
         let lut = Response::Srgb.lut();
         let want = [lut[200], lut[100], lut[50]];
-        assert!(close(img.data[37], want, 0.01), "{:?} vs {want:?}", img.data[37]);
-        let wrong = decode_frame("cam", PixelFormat::Mjpg, 32, 8, 0, &jpeg, &Response::Srgb).unwrap_err();
+        assert!(
+            close(img.data[37], want, 0.01),
+            "{:?} vs {want:?}",
+            img.data[37]
+        );
+        let wrong =
+            decode_frame("cam", PixelFormat::Mjpg, 32, 8, 0, &jpeg, &Response::Srgb).unwrap_err();
         assert!(wrong.to_string().contains("16x8"), "{wrong}");
-        assert!(decode_frame("cam", PixelFormat::Mjpg, 16, 8, 0, &jpeg[..40], &Response::Srgb).is_err());
+        assert!(decode_frame(
+            "cam",
+            PixelFormat::Mjpg,
+            16,
+            8,
+            0,
+            &jpeg[..40],
+            &Response::Srgb
+        )
+        .is_err());
     }
 
     #[test]
     fn fourccs_map_both_ways() {
-        for f in [PixelFormat::Yuyv, PixelFormat::Mjpg, PixelFormat::Grey, PixelFormat::Rgb24] {
+        for f in [
+            PixelFormat::Yuyv,
+            PixelFormat::Mjpg,
+            PixelFormat::Grey,
+            PixelFormat::Rgb24,
+        ] {
             assert_eq!(PixelFormat::from_fourcc(&f.fourcc()), Some(f));
         }
         assert_eq!(PixelFormat::from_fourcc(b"NV12"), None);

@@ -23,7 +23,8 @@ impl Response {
     /// non-negative values.
     pub fn table(values: &[f32]) -> Option<Response> {
         let table: [f32; 256] = values.try_into().ok()?;
-        let ok = table.iter().all(|v| v.is_finite() && *v >= 0.0) && table.windows(2).all(|w| w[0] <= w[1]);
+        let ok = table.iter().all(|v| v.is_finite() && *v >= 0.0)
+            && table.windows(2).all(|w| w[0] <= w[1]);
         ok.then(|| Response::Table(Box::new(table)))
     }
 
@@ -79,6 +80,9 @@ mod tests {
         bad[3] = f32::NAN;
         assert!(Response::table(&bad).is_none());
         assert!(Response::table(&ramp[..100]).is_none());
-        assert!(Response::Gamma(f32::NAN).lut().iter().all(|v| v.is_finite()));
+        assert!(Response::Gamma(f32::NAN)
+            .lut()
+            .iter()
+            .all(|v| v.is_finite()));
     }
 }

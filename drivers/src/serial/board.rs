@@ -85,7 +85,10 @@ impl Board {
         self.last = None;
         self.last_request_at = None;
         self.resets += 1;
-        frame(&format!("READY {} {}", self.config.protocol, self.config.firmware))
+        frame(&format!(
+            "READY {} {}",
+            self.config.protocol, self.config.firmware
+        ))
     }
 
     /// Handles one received line (without its newline) at `now`; returns the
@@ -217,12 +220,21 @@ mod tests {
         let mut b = Board::new(BoardConfig::default(), BoardFaults::default());
         b.boot();
         let t = Instant::now();
-        let ok = Some(BoardLine::Ok { seq: 5, args: vec![] });
+        let ok = Some(BoardLine::Ok {
+            seq: 5,
+            args: vec![],
+        });
         assert_eq!(reply(&mut b, 5, Command::On(LightId::Flash0, 255), t), ok);
         assert_eq!(b.output(LightId::Flash0), 255);
-        b.on_line(request_line(6, &Command::Off(LightId::Flash0)).trim_end(), t);
+        b.on_line(
+            request_line(6, &Command::Off(LightId::Flash0)).trim_end(),
+            t,
+        );
         // A late duplicate of seq 6 must not be executed a second time.
-        b.on_line(request_line(6, &Command::Off(LightId::Flash0)).trim_end(), t);
+        b.on_line(
+            request_line(6, &Command::Off(LightId::Flash0)).trim_end(),
+            t,
+        );
         assert_eq!(b.executed(), 2);
         assert_eq!(b.output(LightId::Flash0), 0);
     }
@@ -237,9 +249,18 @@ mod tests {
         b.boot();
         let t0 = Instant::now();
         reply(&mut b, 1, Command::On(LightId::Backlight, 128), t0);
-        reply(&mut b, 2, Command::On(LightId::Flash1, 64), t0 + Duration::from_millis(400));
+        reply(
+            &mut b,
+            2,
+            Command::On(LightId::Flash1, 64),
+            t0 + Duration::from_millis(400),
+        );
         b.tick(t0 + Duration::from_millis(800));
-        assert_eq!(b.output(LightId::Backlight), 128, "a request 400 ms ago keeps it alive");
+        assert_eq!(
+            b.output(LightId::Backlight),
+            128,
+            "a request 400 ms ago keeps it alive"
+        );
         b.tick(t0 + Duration::from_millis(901));
         assert_eq!(b.output(LightId::Backlight), 0);
         assert_eq!(b.output(LightId::Flash1), 0);
@@ -255,7 +276,13 @@ mod tests {
         let mut b = Board::new(BoardConfig::default(), faults);
         b.boot();
         let r = reply(&mut b, 1, Command::On(LightId::Flash1, 255), Instant::now());
-        assert_eq!(r, Some(BoardLine::Ok { seq: 1, args: vec![] }));
+        assert_eq!(
+            r,
+            Some(BoardLine::Ok {
+                seq: 1,
+                args: vec![]
+            })
+        );
         assert_eq!(b.commanded(LightId::Flash1), 255);
         assert_eq!(b.output(LightId::Flash1), 0);
     }

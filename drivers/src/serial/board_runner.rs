@@ -74,7 +74,11 @@ fn serve(port: &mut dyn Port, board: &Mutex<Board>, stop: &AtomicBool) {
         match port.read(&mut buf) {
             Ok(0) => return,
             Ok(n) => lines.push(&buf[..n]),
-            Err(e) if matches!(e.kind(), ErrorKind::TimedOut | ErrorKind::WouldBlock | ErrorKind::Interrupted) => {}
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    ErrorKind::TimedOut | ErrorKind::WouldBlock | ErrorKind::Interrupted
+                ) => {}
             Err(_) => return,
         }
         while let Some(line) = lines.pop() {

@@ -222,14 +222,20 @@ fn parse_hello(port: &str, args: &[String]) -> Result<BoardInfo, DriverError> {
     };
     match args {
         [hello, proto, firmware, heartbeat] if hello == "HELLO" => {
-            let protocol = proto.parse::<u32>().ok().filter(|p| *p == PROTOCOL_VERSION).ok_or_else(|| {
-                DriverError::ProtocolMismatch {
+            let protocol = proto
+                .parse::<u32>()
+                .ok()
+                .filter(|p| *p == PROTOCOL_VERSION)
+                .ok_or_else(|| DriverError::ProtocolMismatch {
                     port: port.to_string(),
                     expected: PROTOCOL_VERSION,
                     got: proto.clone(),
-                }
-            })?;
-            let ms = heartbeat.parse::<u64>().ok().filter(|&ms| ms > 0).ok_or_else(malformed)?;
+                })?;
+            let ms = heartbeat
+                .parse::<u64>()
+                .ok()
+                .filter(|&ms| ms > 0)
+                .ok_or_else(malformed)?;
             Ok(BoardInfo {
                 protocol,
                 firmware: firmware.clone(),
@@ -277,7 +283,10 @@ impl Link {
                             resets,
                         });
                     }
-                    tracing::warn!("{}: the light controller reset; re-applying its state", self.name);
+                    tracing::warn!(
+                        "{}: the light controller reset; re-applying its state",
+                        self.name
+                    );
                     resync = true;
                 }
             }
@@ -306,12 +315,22 @@ impl Link {
         let line = request_line(seq, &command);
         for attempt in 1..=self.config.attempts {
             if attempt > 1 {
-                tracing::debug!("{}: retrying `{}` (attempt {attempt})", self.name, command.text());
+                tracing::debug!(
+                    "{}: retrying `{}` (attempt {attempt})",
+                    self.name,
+                    command.text()
+                );
             }
             self.port
                 .write_all(line.as_bytes())
                 .and_then(|()| self.port.flush())
-                .map_err(|e| Failure::Fatal(DriverError::io(&self.name, "writing to the light controller", e)))?;
+                .map_err(|e| {
+                    Failure::Fatal(DriverError::io(
+                        &self.name,
+                        "writing to the light controller",
+                        e,
+                    ))
+                })?;
             self.last_sent = Instant::now();
             let deadline = Instant::now() + self.config.reply_timeout;
             while let Some(reply) = self.read_line(deadline).map_err(Failure::Fatal)? {
@@ -365,8 +384,18 @@ impl Link {
                     ))
                 }
                 Ok(n) => self.lines.push(&buf[..n]),
-                Err(e) if matches!(e.kind(), ErrorKind::TimedOut | ErrorKind::WouldBlock | ErrorKind::Interrupted) => {}
-                Err(e) => return Err(DriverError::io(&self.name, "reading from the light controller", e)),
+                Err(e)
+                    if matches!(
+                        e.kind(),
+                        ErrorKind::TimedOut | ErrorKind::WouldBlock | ErrorKind::Interrupted
+                    ) => {}
+                Err(e) => {
+                    return Err(DriverError::io(
+                        &self.name,
+                        "reading from the light controller",
+                        e,
+                    ))
+                }
             }
         }
     }

@@ -37,7 +37,11 @@ pub use pty::{pty_pair, PtyPort};
 /// Opens the light controller at `path` (e.g.
 /// `/dev/serial/by-id/usb-Arduino...-if00`): opening resets most boards,
 /// so this waits for their READY banner.
-pub fn open_lights(path: &str, baud: u32, config: HostConfig) -> Result<SerialLights, crate::DriverError> {
+pub fn open_lights(
+    path: &str,
+    baud: u32,
+    config: HostConfig,
+) -> Result<SerialLights, crate::DriverError> {
     let port = SerialDevice::open(path, baud)?;
     SerialLights::connect(Box::new(port), config)
 }

@@ -154,7 +154,10 @@ mod tests {
         assert_eq!(&buf, b"hel");
         assert_eq!(b.read(&mut buf).unwrap(), 2);
         b.set_read_timeout(Duration::from_millis(1)).unwrap();
-        assert_eq!(b.read(&mut buf).unwrap_err().kind(), io::ErrorKind::TimedOut);
+        assert_eq!(
+            b.read(&mut buf).unwrap_err().kind(),
+            io::ErrorKind::TimedOut
+        );
         drop(a);
         assert_eq!(b.read(&mut buf).unwrap(), 0);
     }

@@ -15,7 +15,10 @@ fn quick() -> HostConfig {
     }
 }
 
-fn rig(faults: BoardFaults, config: HostConfig) -> (Result<SerialLights, DriverError>, RunningBoard) {
+fn rig(
+    faults: BoardFaults,
+    config: HostConfig,
+) -> (Result<SerialLights, DriverError>, RunningBoard) {
     let (master, slave) = pty_pair().expect("openpty");
     let board = RunningBoard::spawn(Box::new(slave), Board::new(BoardConfig::default(), faults));
     (SerialLights::connect(Box::new(master), config), board)
@@ -31,12 +34,17 @@ fn happy_path_switches_lights_and_reports_the_board() {
     assert_eq!(lights.board_info().protocol, 1);
     assert_eq!(lights.board_info().firmware, board::SIM_FIRMWARE);
     lights.on(LightId::Flash0, Level::FULL).unwrap();
-    lights.on(LightId::Backlight, Level::new(0.5).unwrap()).unwrap();
+    lights
+        .on(LightId::Backlight, Level::new(0.5).unwrap())
+        .unwrap();
     assert_eq!(board.board().output(LightId::Flash0), 255);
     assert_eq!(board.board().output(LightId::Backlight), 128);
     lights.off(LightId::Flash0).unwrap();
     assert_eq!(board.board().output(LightId::Flash0), 0);
-    assert_eq!(lights.state(LightId::Backlight), LightState::On(Level::new(0.5).unwrap()));
+    assert_eq!(
+        lights.state(LightId::Backlight),
+        LightState::On(Level::new(0.5).unwrap())
+    );
     lights.all_off().unwrap();
     assert_eq!(board.board().output(LightId::Backlight), 0);
     lights.ping().unwrap();
@@ -53,7 +61,11 @@ fn lost_reply_is_retried_under_the_same_seq_and_executed_once() {
     let executed = board.board().executed();
     lights.on(LightId::Flash1, Level::FULL).unwrap();
     assert_eq!(board.board().output(LightId::Flash1), 255);
-    assert_eq!(board.board().executed(), executed + 1, "the retry must be answered from memory");
+    assert_eq!(
+        board.board().executed(),
+        executed + 1,
+        "the retry must be answered from memory"
+    );
 }
 
 #[test]
@@ -64,9 +76,14 @@ fn corrupt_reply_crc_is_ignored_and_retried() {
     };
     let (lights, board) = rig(faults, quick());
     let mut lights = lights.unwrap();
-    lights.on(LightId::Flash0, Level::new(0.25).unwrap()).unwrap();
+    lights
+        .on(LightId::Flash0, Level::new(0.25).unwrap())
+        .unwrap();
     assert_eq!(board.board().output(LightId::Flash0), 64);
-    assert_eq!(lights.state(LightId::Flash0), LightState::On(Level::new(0.25).unwrap()));
+    assert_eq!(
+        lights.state(LightId::Flash0),
+        LightState::On(Level::new(0.25).unwrap())
+    );
 }
 
 #[test]
@@ -82,7 +99,11 @@ fn board_reset_mid_sequence_is_resynced_and_state_reapplied() {
     lights.on(LightId::Flash0, Level::FULL).unwrap();
     let b = board.board();
     assert_eq!(b.resets(), 2, "power-on plus the injected reset");
-    assert_eq!(b.output(LightId::Backlight), 255, "re-applied after the reset");
+    assert_eq!(
+        b.output(LightId::Backlight),
+        255,
+        "re-applied after the reset"
+    );
     assert_eq!(b.output(LightId::Flash0), 255);
     drop(b);
     assert_eq!(lights.resyncs(), 1);
@@ -97,7 +118,10 @@ fn a_board_that_keeps_resetting_gives_a_clear_error() {
     let (lights, _board) = rig(faults, quick());
     let mut lights = lights.unwrap();
     let err = lights.on(LightId::Flash0, Level::FULL).unwrap_err();
-    assert!(matches!(err, DriverError::KeepsResetting { resets: 3, .. }), "{err}");
+    assert!(
+        matches!(err, DriverError::KeepsResetting { resets: 3, .. }),
+        "{err}"
+    );
     assert!(err.to_string().contains("pty-master"), "{err}");
 }
 
@@ -123,7 +147,11 @@ fn persistent_silence_is_a_timeout_naming_the_port_and_command() {
         }
         other => panic!("expected a timeout, got {other}"),
     }
-    assert_eq!(lights.state(LightId::Flash1), LightState::Off, "not acknowledged, not recorded");
+    assert_eq!(
+        lights.state(LightId::Flash1),
+        LightState::Off,
+        "not acknowledged, not recorded"
+    );
 }
 
 #[test]
@@ -159,11 +187,15 @@ fn without_a_host_the_heartbeat_switches_lights_off() {
     lights.on(LightId::Backlight, Level::FULL).unwrap();
     assert_eq!(board.board().output(LightId::Backlight), 255);
     let since = std::time::Instant::now();
-    while board.board().output(LightId::Backlight) != 0 && since.elapsed() < Duration::from_secs(5) {
+    while board.board().output(LightId::Backlight) != 0 && since.elapsed() < Duration::from_secs(5)
+    {
         std::thread::sleep(Duration::from_millis(10));
     }
     assert_eq!(board.board().output(LightId::Backlight), 0);
-    assert!(since.elapsed() >= Duration::from_millis(90), "went off before the heartbeat expired");
+    assert!(
+        since.elapsed() >= Duration::from_millis(90),
+        "went off before the heartbeat expired"
+    );
     assert_eq!(board.board().heartbeat_expiries(), 1);
 }
 
@@ -179,7 +211,10 @@ fn wrong_protocol_version_is_refused_with_both_versions() {
         Err(e) => e,
         Ok(_) => panic!("accepted protocol 7"),
     };
-    assert!(matches!(err, DriverError::ProtocolMismatch { expected: 1, .. }), "{err}");
+    assert!(
+        matches!(err, DriverError::ProtocolMismatch { expected: 1, .. }),
+        "{err}"
+    );
     assert!(err.to_string().contains("protocol 7"), "{err}");
 }
 

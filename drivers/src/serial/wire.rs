@@ -108,9 +108,18 @@ pub fn request_line(seq: u16, command: &Command) -> String {
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum BoardLine {
     /// The banner after a reset: `READY <proto> <fw>`.
-    Ready { proto: String, firmware: String },
-    Ok { seq: u16, args: Vec<String> },
-    Err { seq: u16, reason: String },
+    Ready {
+        proto: String,
+        firmware: String,
+    },
+    Ok {
+        seq: u16,
+        args: Vec<String>,
+    },
+    Err {
+        seq: u16,
+        reason: String,
+    },
 }
 
 impl BoardLine {
@@ -182,7 +191,10 @@ mod tests {
         assert!(line.ends_with('\n'));
         let tokens = unframe(&line).unwrap();
         assert_eq!(tokens, ["42", "ON", "F1", "200"]);
-        assert_eq!(Command::parse(&tokens[1..]), Ok(Command::On(LightId::Flash1, 200)));
+        assert_eq!(
+            Command::parse(&tokens[1..]),
+            Ok(Command::On(LightId::Flash1, 200))
+        );
         let bad = line.replace("200", "201");
         assert!(matches!(unframe(&bad), Err(LineError::BadCrc { .. })));
         assert_eq!(unframe("42 OK"), Err(LineError::NoCrc));
@@ -201,7 +213,10 @@ mod tests {
         ] {
             assert!(unframe(line).is_ok(), "{line}");
         }
-        assert_eq!(request_line(2, &Command::On(LightId::Flash0, 255)), "2 ON F0 255 *68D3\n");
+        assert_eq!(
+            request_line(2, &Command::On(LightId::Flash0, 255)),
+            "2 ON F0 255 *68D3\n"
+        );
     }
 
     #[test]

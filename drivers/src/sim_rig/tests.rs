@@ -3,7 +3,7 @@
 
 use super::*;
 use crate::{Checker, Level};
-use matscan_sim::scene::{generate, GeometrySource, GeometryKind, SceneKind, SceneOptions};
+use matscan_sim::scene::{generate, GeometryKind, GeometrySource, SceneKind, SceneOptions};
 use std::num::NonZeroU32;
 
 fn scene() -> Scene {
@@ -30,7 +30,13 @@ fn config(faults: SimFaults) -> SimConfig {
 
 fn mean(frame: &crate::Frame) -> f32 {
     let n = frame.rgb.data.len() as f32;
-    frame.rgb.data.iter().map(|p| p[0] + p[1] + p[2]).sum::<f32>() / (3.0 * n)
+    frame
+        .rgb
+        .data
+        .iter()
+        .map(|p| p[0] + p[1] + p[2])
+        .sum::<f32>()
+        / (3.0 * n)
 }
 
 #[test]
@@ -40,12 +46,25 @@ fn flash_on_is_brighter_than_ambient_and_forgetting_it_gives_ambient() {
     let ambient = rig.camera.capture().unwrap();
     rig.lights.on(LightId::Flash0, Level::FULL).unwrap();
     let lit = rig.camera.capture().unwrap();
-    assert!(mean(&lit) > mean(&ambient) * 1.05 + 1e-4, "{} vs {}", mean(&lit), mean(&ambient));
+    assert!(
+        mean(&lit) > mean(&ambient) * 1.05 + 1e-4,
+        "{} vs {}",
+        mean(&lit),
+        mean(&ambient)
+    );
     rig.lights.off(LightId::Flash0).unwrap();
     let forgot = rig.camera.capture().unwrap();
-    assert_eq!(forgot.rgb, ambient.rgb, "a flash that is off must not light the photo");
+    assert_eq!(
+        forgot.rgb, ambient.rgb,
+        "a flash that is off must not light the photo"
+    );
     assert!(forgot.sequence > lit.sequence && lit.sequence > ambient.sequence);
-    assert!(ambient.rgb.data.iter().flatten().all(|v| v.is_finite() && *v >= 0.0));
+    assert!(ambient
+        .rgb
+        .data
+        .iter()
+        .flatten()
+        .all(|v| v.is_finite() && *v >= 0.0));
 }
 
 #[test]
@@ -54,11 +73,16 @@ fn half_level_adds_about_half_the_flash() {
     let ambient = mean(&rig.camera.capture().unwrap());
     rig.lights.on(LightId::Flash1, Level::FULL).unwrap();
     let full = mean(&rig.camera.capture().unwrap()) - ambient;
-    rig.lights.on(LightId::Flash1, Level::new(0.5).unwrap()).unwrap();
+    rig.lights
+        .on(LightId::Flash1, Level::new(0.5).unwrap())
+        .unwrap();
     let half = mean(&rig.camera.capture().unwrap()) - ambient;
     assert!(full > 0.0);
     // Duty 128/255, up to saturation (which only lowers `full`).
-    assert!(half >= 0.45 * full && half <= 0.51 * full + 1e-6, "half {half} full {full}");
+    assert!(
+        half >= 0.45 * full && half <= 0.51 * full + 1e-6,
+        "half {half} full {full}"
+    );
 }
 
 #[test]
@@ -80,7 +104,11 @@ fn projector_pattern_and_position_change_the_photo() {
     assert_eq!(rig.positioner.count(), 2);
     assert_eq!(rig.positioner.advance().unwrap(), 1);
     assert_ne!(rig.camera.capture().unwrap().rgb, dark.rgb);
-    assert_eq!(rig.positioner.advance().unwrap(), 0, "wraps after the last position");
+    assert_eq!(
+        rig.positioner.advance().unwrap(),
+        0,
+        "wraps after the last position"
+    );
 }
 
 #[test]
@@ -95,7 +123,10 @@ fn a_flash_that_does_not_fire_acknowledges_but_leaves_the_photo_ambient() {
     let mut rig = SimulatedRig::new(scene(), config(faults)).unwrap();
     let ambient = rig.camera.capture().unwrap();
     rig.lights.on(LightId::Flash0, Level::FULL).unwrap();
-    assert_eq!(rig.lights.state(LightId::Flash0), LightState::On(Level::FULL));
+    assert_eq!(
+        rig.lights.state(LightId::Flash0),
+        LightState::On(Level::FULL)
+    );
     assert_eq!(rig.camera.capture().unwrap().rgb, ambient.rgb);
 }
 
@@ -108,7 +139,10 @@ fn camera_lost_after_n_frames() {
     let mut rig = SimulatedRig::new(scene(), config(faults)).unwrap();
     rig.camera.capture().unwrap();
     let err = rig.camera.capture().unwrap_err();
-    assert!(matches!(err, DriverError::CameraLost { frames: 1, .. }), "{err}");
+    assert!(
+        matches!(err, DriverError::CameraLost { frames: 1, .. }),
+        "{err}"
+    );
     assert!(err.to_string().contains(CAMERA_ID));
 }
 
@@ -139,7 +173,17 @@ fn full_disk_refuses_the_write_that_does_not_fit() {
     rig.disk.write(&dir.path().join("a"), &[1; 60]).unwrap();
     let b = dir.path().join("b");
     let err = rig.disk.write(&b, &[1; 60]).unwrap_err();
-    assert!(matches!(err, DriverError::DiskFull { written: 40, wanted: 60, .. }), "{err}");
+    assert!(
+        matches!(
+            err,
+            DriverError::DiskFull {
+                written: 40,
+                wanted: 60,
+                ..
+            }
+        ),
+        "{err}"
+    );
     assert!(!b.exists());
     assert_eq!(rig.disk.used(), 60);
 }
@@ -149,8 +193,19 @@ fn footswitch_presses_arrive_and_silence_times_out() {
     let mut rig = SimulatedRig::new(scene(), config(SimFaults::default())).unwrap();
     assert_eq!(rig.trigger.wait(Duration::from_millis(1)).unwrap(), None);
     rig.footswitch.press();
-    assert!(rig.trigger.wait(Duration::from_millis(1)).unwrap().is_some());
-    let SimulatedRig { mut trigger, footswitch, .. } = rig;
+    assert!(rig
+        .trigger
+        .wait(Duration::from_millis(1))
+        .unwrap()
+        .is_some());
+    let SimulatedRig {
+        mut trigger,
+        footswitch,
+        ..
+    } = rig;
     drop(footswitch);
-    assert!(matches!(trigger.wait(Duration::from_millis(1)), Err(DriverError::Disconnected { .. })));
+    assert!(matches!(
+        trigger.wait(Duration::from_millis(1)),
+        Err(DriverError::Disconnected { .. })
+    ));
 }
