@@ -10,11 +10,12 @@
 //! - [`backend`]: explicit CPU device choice (flex by default).
 //!
 //! Out of scope: building the input channels from a scan, running the five
-//! networks in order, and training loops.
+//! networks in order, and training loops. Feature `train` adds burn's
+//! autodiff and optimizers (and `backend::training_device`) for a trainer;
+//! its test (`tests/training.rs`) runs with `--features train`.
 //!
 //! # Performance
 //!
-//! See `examples/net_bench.rs`; figures are recorded below as measured.
 #![doc = include_str!("../PERFORMANCE.md")]
 
 pub mod backend;

@@ -32,6 +32,7 @@ use crate::pyramid::{upsample_nearest, EmptyImage, PyramidPlan};
 use crate::spec::ParamKind;
 use burn::module::Module;
 use burn::tensor::{Device, Tensor};
+use std::convert::Infallible;
 
 /// Inputs are clamped to +- this before they enter a network.
 pub const INPUT_LIMIT: f32 = 4.0;
@@ -325,7 +326,7 @@ impl ParamNet {
         };
         let fused_width = self.config.fused_width();
         let width = self.config.width;
-        // The per-view feature half (roughness); empty tensors otherwise.
+        // The per-view feature half (roughness); None otherwise.
         let mut own: Vec<Option<Tensor<4>>> = vec![None; views.len()];
         let keep_own = |view: usize, features: Tensor<4>, own: &mut Vec<Option<Tensor<4>>>| {
             if fused_width < width {
@@ -335,15 +336,16 @@ impl ParamNet {
                 features
             }
         };
-        let mut fused = tree.fuse::<InputError>(&mut |view| {
+        // Leaves cannot fail: the views were checked above.
+        let Ok(mut fused) = tree.fuse::<Infallible>(&mut |view| {
             let features = self.input_stem.forward(coarsest[view].clone());
             Ok(keep_own(view, features, &mut own))
-        })?;
+        });
         drop(coarsest);
         while let Some(inputs) = levels.pop() {
             let up = upsample_nearest(fused);
             let shared = self.core.reduce_shared(up.clone());
-            fused = tree.fuse::<InputError>(&mut |view| {
+            let Ok(refined) = tree.fuse::<Infallible>(&mut |view| {
                 let features = match own[view].take() {
                     Some(mine) => Tensor::cat(vec![up.clone(), upsample_nearest(mine)], 1),
                     None => up.clone(),
@@ -353,7 +355,8 @@ impl ParamNet {
                         .forward_with_shared(features, &shared, Some(inputs[view].clone()));
                 let refined = self.core_prime.forward(refined, None);
                 Ok(keep_own(view, refined, &mut own))
-            })?;
+            });
+            fused = refined;
         }
         let per_view = match &self.illumination_stem {
             Some(stem) => own
@@ -453,4 +456,81 @@ impl ParamNet {
 fn sanitize(view: Tensor<4>) -> Tensor<4> {
     let nan = view.clone().is_nan();
     view.mask_fill(nan, 0.0).clamp(-INPUT_LIMIT, INPUT_LIMIT)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn widths_are_checked() {
+        assert_eq!(
+            NetConfig::new(ParamKind::Roughness, 7),
+            Err(ConfigError::OddSplit {
+                kind: ParamKind::Roughness,
+                width: 7
+            })
+        );
+        assert!(NetConfig::new(ParamKind::Metallic, 7).is_ok());
+        assert_eq!(
+            NetConfig::new(ParamKind::Metallic, 0),
+            Err(ConfigError::OutOfRange {
+                what: "width",
+                value: 0
+            })
+        );
+        assert_eq!(
+            NetConfig::with_track(ParamKind::Metallic, 8, MAX_WIDTH + 1),
+            Err(ConfigError::OutOfRange {
+                what: "track",
+                value: MAX_WIDTH + 1
+            })
+        );
+        let config = NetConfig::new(ParamKind::Basecolor, 128).expect("valid");
+        assert_eq!(config, NetConfig::thesis(ParamKind::Basecolor));
+        assert_eq!(
+            (
+                config.track(),
+                config.in_channels(),
+                config.fused_out_channels()
+            ),
+            (32, 21, 3)
+        );
+    }
+
+    #[test]
+    fn shipped_configurations_are_valid() {
+        for kind in ParamKind::ALL {
+            let shipped = NetConfig::shipped(kind);
+            let checked = NetConfig::with_track(kind, shipped.width(), shipped.track());
+            assert_eq!(checked, Ok(shipped), "{kind}");
+        }
+    }
+
+    #[test]
+    fn roughness_fuses_half_its_features() {
+        let config = NetConfig::new(ParamKind::Roughness, 16).expect("valid");
+        assert_eq!(
+            (config.fused_width(), config.per_view_out_channels()),
+            (8, 1)
+        );
+        let config = NetConfig::new(ParamKind::Subsurface, 16).expect("valid");
+        assert_eq!(
+            (config.fused_width(), config.per_view_out_channels()),
+            (16, 0)
+        );
+    }
+
+    #[test]
+    fn the_operation_count_follows_the_blocks() {
+        // 16x16 runs the stems only. Width 4, track 1, transmission (5 in, 1 out):
+        // input stem 3*5 + 18 + 3*4 = 45 and output stem 3*4 + 18 + 3*1 = 33
+        // multiply-adds per pixel.
+        let config = NetConfig::with_track(ParamKind::Transmission, 4, 1).expect("valid");
+        let flops = config.forward_flops(16, 16, 1).expect("non-empty");
+        assert_eq!(flops, 2.0 * 256.0 * (45.0 + 33.0));
+        // Views multiply the per-view work; the output stem runs once.
+        let nine = config.forward_flops(16, 16, 9).expect("non-empty");
+        assert_eq!(nine, 2.0 * 256.0 * (9.0 * 45.0 + 33.0));
+    }
 }

@@ -32,7 +32,10 @@ fn main() {
     let seed: u64 = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(7);
     let threads: Option<usize> = args.get(2).and_then(|s| s.parse().ok());
     if let Some(n) = threads {
-        if let Err(e) = rayon::ThreadPoolBuilder::new().num_threads(n).build_global() {
+        if let Err(e) = rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build_global()
+        {
             eprintln!("cannot size the thread pool: {e}");
         }
     }

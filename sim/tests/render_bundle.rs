@@ -51,7 +51,11 @@ fn a_simulated_scan_has_every_capture_and_truth_map() {
         for capture in &position.captures {
             let photo = bundle.read_photo(&position.name, &capture.name).unwrap();
             assert_eq!((photo.width, photo.height), (32, 32));
-            assert!(photo.data.iter().flatten().all(|v| v.is_finite() && *v >= 0.0));
+            assert!(photo
+                .data
+                .iter()
+                .flatten()
+                .all(|v| v.is_finite() && *v >= 0.0));
         }
         let mask = bundle.read_mask(&position.name).unwrap().unwrap();
         assert!(mask.data.iter().any(|&m| m), "the object is in view");
@@ -110,5 +114,9 @@ fn a_failed_simulation_leaves_no_bundle() {
     // Duplicate light names make an invalid manifest: caught at finish.
     assert!(write_scan_bundle(&scene, &options(), &out).is_err());
     assert!(!out.exists());
-    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0, "no temporary left");
+    assert_eq!(
+        std::fs::read_dir(dir.path()).unwrap().count(),
+        0,
+        "no temporary left"
+    );
 }

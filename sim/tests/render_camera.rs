@@ -11,7 +11,10 @@ use matscan_sim::scene::EnvSource;
 
 /// Tiny camera-facing squares centred on points that project to the given
 /// pixels' centres; returns the scene and the camera.
-fn tiny_targets(distortion: [f64; 5], pixels: &[(u32, u32)]) -> (matscan_sim::scene::Scene, PinholeCamera) {
+fn tiny_targets(
+    distortion: [f64; 5],
+    pixels: &[(u32, u32)],
+) -> (matscan_sim::scene::Scene, PinholeCamera) {
     let mut k = intrinsics(48, 1.05, distortion);
     k.height = 40;
     k.fy = 52.0;

@@ -43,7 +43,11 @@ fn dark_to_bright(material: &Material) -> f32 {
         ..RenderOptions::default()
     };
     let photo = renderer
-        .render_position(0, &[CaptureSpec::new("checker", &["projector"], Some(pattern))], &opts)
+        .render_position(
+            0,
+            &[CaptureSpec::new("checker", &["projector"], Some(pattern))],
+            &opts,
+        )
         .unwrap()
         .photos
         .remove(0);
@@ -60,11 +64,16 @@ fn dark_to_bright(material: &Material) -> f32 {
     for y in 0..48 {
         for x in 0..48 {
             // Only pixels wholly inside one square (corners and centre agree).
-            let probes: Vec<Option<bool>> =
-                [(0.01, 0.01), (0.99, 0.01), (0.01, 0.99), (0.99, 0.99), (0.5, 0.5)]
-                    .iter()
-                    .map(|&(dx, dy)| square_at(glam::DVec2::new(x as f64 + dx, y as f64 + dy)))
-                    .collect();
+            let probes: Vec<Option<bool>> = [
+                (0.01, 0.01),
+                (0.99, 0.01),
+                (0.01, 0.99),
+                (0.99, 0.99),
+                (0.5, 0.5),
+            ]
+            .iter()
+            .map(|&(dx, dy)| square_at(glam::DVec2::new(x as f64 + dx, y as f64 + dy)))
+            .collect();
             if probes.iter().any(|p| *p != probes[0]) {
                 continue;
             }
@@ -97,7 +106,10 @@ fn subsurface_scattering_blurs_the_projected_checkerboard() {
     let sharp = dark_to_bright(&opaque);
     let blurred = dark_to_bright(&translucent);
     assert!(sharp < 0.01, "opaque: dark squares at {sharp} of bright");
-    assert!(blurred > 0.1, "subsurface: dark squares at {blurred} of bright");
+    assert!(
+        blurred > 0.1,
+        "subsurface: dark squares at {blurred} of bright"
+    );
 }
 
 /// A slab between the camera and the switched-on panel.
@@ -126,7 +138,11 @@ fn backlit_centre(material: &Material) -> f32 {
         ..RenderOptions::default()
     };
     let images = renderer
-        .render_position(0, &[CaptureSpec::new("backlight", &["backlight"], None)], &opts)
+        .render_position(
+            0,
+            &[CaptureSpec::new("backlight", &["backlight"], None)],
+            &opts,
+        )
         .unwrap();
     let mut sum = 0.0;
     for y in 10..14 {
@@ -157,7 +173,10 @@ fn the_backlight_shines_through_a_transmissive_slab() {
     assert!(blocked < 0.02 * radiance, "opaque: {blocked}");
     // Two dielectric interfaces lose about 7 % to reflection.
     assert!(through_clear > 0.8 * radiance, "clear: {through_clear}");
-    assert!(through_frosted > 0.5 * radiance, "frosted: {through_frosted}");
+    assert!(
+        through_frosted > 0.5 * radiance,
+        "frosted: {through_frosted}"
+    );
 }
 
 fn all_captures() -> Vec<CaptureSpec> {
@@ -181,10 +200,20 @@ fn assert_finite_renders(s: &Scene, what: &str) {
     let images = renderer.render_position(0, &all_captures(), &opts).unwrap();
     assert_eq!(images.dropped_samples, 0, "{what}: samples dropped");
     for img in images.photos.iter().chain(&images.light_only) {
-        assert!(img.data.iter().flatten().all(|v| v.is_finite() && *v >= 0.0), "{what}");
+        assert!(
+            img.data
+                .iter()
+                .flatten()
+                .all(|v| v.is_finite() && *v >= 0.0),
+            "{what}"
+        );
     }
-    let illum = renderer.render_illum(0, &all_captures()[1..3], &opts).unwrap();
-    assert!(illum.iter().all(|i| i.data.iter().flatten().all(|v| v.is_finite())));
+    let illum = renderer
+        .render_illum(0, &all_captures()[1..3], &opts)
+        .unwrap();
+    assert!(illum
+        .iter()
+        .all(|i| i.data.iter().flatten().all(|v| v.is_finite())));
     let truth = renderer.render_truth(0).unwrap();
     assert!(truth.basecolor.data.iter().flatten().all(|v| v.is_finite()));
 }
@@ -193,12 +222,41 @@ fn assert_finite_renders(s: &Scene, what: &str) {
 fn extreme_materials_render_without_nan_or_infinity() {
     let base = diffuse(0.5);
     let materials = [
-        Material { roughness: 0.0, metallic: 1.0, basecolor: Vec3::ONE, ..base },
-        Material { roughness: 0.0, transmission: 1.0, basecolor: Vec3::ONE, ..base },
-        Material { roughness: 1.0, transmission: 1.0, basecolor: Vec3::ZERO, ..base },
-        Material { subsurface: 1.0, subsurface_radius: Vec3::splat(1e-7), ..base },
-        Material { subsurface: 1.0, subsurface_radius: Vec3::new(1e3, 1e-3, 1.0), basecolor: Vec3::ONE, ..base },
-        Material { subsurface: 1e-4, roughness: 1e-4, basecolor: Vec3::new(1.0, 0.0, 1.0), ..base },
+        Material {
+            roughness: 0.0,
+            metallic: 1.0,
+            basecolor: Vec3::ONE,
+            ..base
+        },
+        Material {
+            roughness: 0.0,
+            transmission: 1.0,
+            basecolor: Vec3::ONE,
+            ..base
+        },
+        Material {
+            roughness: 1.0,
+            transmission: 1.0,
+            basecolor: Vec3::ZERO,
+            ..base
+        },
+        Material {
+            subsurface: 1.0,
+            subsurface_radius: Vec3::splat(1e-7),
+            ..base
+        },
+        Material {
+            subsurface: 1.0,
+            subsurface_radius: Vec3::new(1e3, 1e-3, 1.0),
+            basecolor: Vec3::ONE,
+            ..base
+        },
+        Material {
+            subsurface: 1e-4,
+            roughness: 1e-4,
+            basecolor: Vec3::new(1.0, 0.0, 1.0),
+            ..base
+        },
         Material {
             basecolor: Vec3::new(f32::NAN, f32::INFINITY, -1.0),
             roughness: f32::NAN,

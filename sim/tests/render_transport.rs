@@ -229,10 +229,16 @@ fn the_checkerboard_lands_where_the_contract_projects_it() {
     for y in 0..size {
         for x in 0..size {
             // Only pixels wholly inside one square (corners and centre agree).
-            let probes: Vec<Option<f64>> = [(0.01, 0.01), (0.99, 0.01), (0.01, 0.99), (0.99, 0.99), (0.5, 0.5)]
-                .iter()
-                .map(|&(dx, dy)| value_at(DVec2::new(x as f64 + dx, y as f64 + dy)))
-                .collect();
+            let probes: Vec<Option<f64>> = [
+                (0.01, 0.01),
+                (0.99, 0.01),
+                (0.01, 0.99),
+                (0.99, 0.99),
+                (0.5, 0.5),
+            ]
+            .iter()
+            .map(|&(dx, dy)| value_at(DVec2::new(x as f64 + dx, y as f64 + dy)))
+            .collect();
             if probes.iter().any(|p| *p != probes[0]) {
                 continue;
             }

@@ -152,10 +152,10 @@ fn write_bundle(scene: &Scene, opts: &SimOptions, out_dir: &Path) -> Result<Bund
         }
         let white_reference_mask = if opts.white_reference {
             let panel = renderer.panel_mask(index)?;
-            Some(writer.write_mask_at(
-                PathBuf::from("views").join(name).join("white.png"),
-                &panel,
-            )?)
+            Some(
+                writer
+                    .write_mask_at(PathBuf::from("views").join(name).join("white.png"), &panel)?,
+            )
         } else {
             None
         };
@@ -209,7 +209,11 @@ fn plan_captures(rig: &RigPosition, (small, large): (u32, u32)) -> Vec<PlannedCa
     }
     let projector = rig.projector.name.as_str();
     out.push(PlannedCapture {
-        spec: CaptureSpec::new(projector, &[projector], Some(Pattern::Uniform { level: 0.5 })),
+        spec: CaptureSpec::new(
+            projector,
+            &[projector],
+            Some(Pattern::Uniform { level: 0.5 }),
+        ),
         lit: true,
     });
     out.push(PlannedCapture {
@@ -244,10 +248,8 @@ pub fn checker_periods(scene: &Scene) -> (u32, u32) {
         .as_dvec3();
     let ratio = scene.rig.positions.first().map_or(1.0, |rig| {
         let camera = PinholeCamera::new(scene.rig.intrinsics, rig.camera_to_world);
-        let projector = PinholeCamera::new(
-            rig.projector.intrinsics,
-            rig.projector.projector_to_world,
-        );
+        let projector =
+            PinholeCamera::new(rig.projector.intrinsics, rig.projector.projector_to_world);
         let d_cam = (camera.center() - centre).length();
         let d_proj = (projector.center() - centre).length();
         scene.rig.intrinsics.fx / rig.projector.intrinsics.fx * d_proj / d_cam
@@ -262,7 +264,15 @@ pub fn checker_periods(scene: &Scene) -> (u32, u32) {
 }
 
 fn half_range(image: &RgbRaster) -> RgbRaster {
-    image.map(|p| p.map(|v| if v.is_finite() { v.clamp(0.0, HALF_MAX) } else { 0.0 }))
+    image.map(|p| {
+        p.map(|v| {
+            if v.is_finite() {
+                v.clamp(0.0, HALF_MAX)
+            } else {
+                0.0
+            }
+        })
+    })
 }
 
 /// `truth/scene.toml`.
@@ -285,8 +295,16 @@ fn scene_toml(
     let _ = writeln!(s, "samples = {}", opts.samples);
     let _ = writeln!(s, "max_depth = {}", opts.max_depth);
     let _ = writeln!(s, "environment = {}", toml_string(&env));
-    let _ = writeln!(s, "environment_strength = {}", toml_float(scene.environment.strength));
-    let _ = writeln!(s, "environment_rotation = {}", toml_float(scene.environment.rotation));
+    let _ = writeln!(
+        s,
+        "environment_strength = {}",
+        toml_float(scene.environment.strength)
+    );
+    let _ = writeln!(
+        s,
+        "environment_rotation = {}",
+        toml_float(scene.environment.rotation)
+    );
     let _ = writeln!(s, "checker_periods_px = [{small}, {large}]");
     let _ = writeln!(s, "drowned_threshold = {}", toml_float(DROWNED_THRESHOLD));
     for (name, a, dropped) in report {

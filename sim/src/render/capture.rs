@@ -24,7 +24,7 @@ use matscan_scan::{Pattern, PinholeCamera};
 
 /// Samples per pixel when nothing else is asked for: the figure that keeps a
 /// 3-position 256 x 256 scan within 60 s on two cores (see `super`).
-pub const DEFAULT_SAMPLES: u32 = 16;
+pub const DEFAULT_SAMPLES: u32 = 32;
 /// Scattering vertices per path at most.
 pub const DEFAULT_MAX_DEPTH: u32 = 8;
 
@@ -215,11 +215,7 @@ impl<'a> Renderer<'a> {
             out
         };
         let ambient = sum(&plan.env_slot.into_iter().collect::<Vec<_>>());
-        let light_only: Vec<RgbRaster> = plan
-            .per_capture
-            .iter()
-            .map(|slots| sum(slots))
-            .collect();
+        let light_only: Vec<RgbRaster> = plan.per_capture.iter().map(|slots| sum(slots)).collect();
         let photos = light_only
             .iter()
             .map(|l| {

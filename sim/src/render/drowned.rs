@@ -106,7 +106,12 @@ mod tests {
         let mut light = RgbRaster::filled(100, 100, [0.01; 3]);
         *light.get_mut(3, 3) = [50.0; 3];
         let mask = MaskRaster::filled(100, 100, false);
-        let a = assess(&[&light], &RgbRaster::filled(100, 100, [1.0; 3]), &mask, 0.1);
+        let a = assess(
+            &[&light],
+            &RgbRaster::filled(100, 100, [1.0; 3]),
+            &mask,
+            0.1,
+        );
         assert!(a.drowned, "{a:?}");
     }
 

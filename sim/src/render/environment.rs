@@ -302,9 +302,15 @@ fn map_cell_means(map: &RgbRaster) -> (usize, usize, Vec<f32>) {
         .collect();
     let mut lum = vec![0.0f32; gw * gh];
     for cy in 0..gh {
-        let (y0, y1) = ((cy * h / gh) as i64 - 1, ((cy + 1) * h).div_ceil(gh) as i64 + 1);
+        let (y0, y1) = (
+            (cy * h / gh) as i64 - 1,
+            ((cy + 1) * h).div_ceil(gh) as i64 + 1,
+        );
         for cx in 0..gw {
-            let (x0, x1) = ((cx * w / gw) as i64 - 1, ((cx + 1) * w).div_ceil(gw) as i64 + 1);
+            let (x0, x1) = (
+                (cx * w / gw) as i64 - 1,
+                ((cx + 1) * w).div_ceil(gw) as i64 + 1,
+            );
             let (mut sum, mut count) = (0.0f64, 0u32);
             for y in y0.max(0)..y1.min(h as i64) {
                 for x in x0..x1 {
@@ -312,7 +318,11 @@ fn map_cell_means(map: &RgbRaster) -> (usize, usize, Vec<f32>) {
                     count += 1;
                 }
             }
-            lum[cy * gw + cx] = if count > 0 { (sum / count as f64) as f32 } else { 0.0 };
+            lum[cy * gw + cx] = if count > 0 {
+                (sum / count as f64) as f32
+            } else {
+                0.0
+            };
         }
     }
     (gw, gh, lum)
@@ -585,12 +595,22 @@ mod tests {
         let mut acc = 0.0f64;
         for _ in 0..n {
             let s = env.sample(rng.next2()).unwrap();
-            assert!((s.pdf - env.pdf(s.dir)).abs() <= 1e-3 * s.pdf.max(1.0), "{} {}", s.pdf, env.pdf(s.dir));
-            assert!((s.radiance - env.radiance(s.dir)).length() < 1e-3 * s.radiance.length().max(1.0));
+            assert!(
+                (s.pdf - env.pdf(s.dir)).abs() <= 1e-3 * s.pdf.max(1.0),
+                "{} {}",
+                s.pdf,
+                env.pdf(s.dir)
+            );
+            assert!(
+                (s.radiance - env.radiance(s.dir)).length() < 1e-3 * s.radiance.length().max(1.0)
+            );
             acc += 1.0 / s.pdf as f64;
         }
         let measure = acc / n as f64;
-        assert!((measure - 4.0 * std::f64::consts::PI).abs() < 0.4, "{measure}");
+        assert!(
+            (measure - 4.0 * std::f64::consts::PI).abs() < 0.4,
+            "{measure}"
+        );
     }
 
     #[test]
@@ -608,7 +628,10 @@ mod tests {
             uni += (luminance(env.radiance(d)) * 4.0 * PI) as f64;
         }
         let (is, uni) = (is / n as f64, uni / n as f64);
-        assert!((is - uni).abs() < 0.05 * uni, "importance {is} vs uniform {uni}");
+        assert!(
+            (is - uni).abs() < 0.05 * uni,
+            "importance {is} vs uniform {uni}"
+        );
     }
 
     #[test]
@@ -641,6 +664,41 @@ mod tests {
             let mean = acc / n as f64 / (4.0 * std::f64::consts::PI);
             assert!((mean - 1.0).abs() < 0.03, "seed {seed}: {mean}");
         }
+    }
+
+    #[test]
+    fn an_exr_map_is_read_rotated_and_scaled() {
+        use crate::scene::{EnvSource, EnvSpec};
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("sky.exr");
+        // Top half (looking up) bright red, bottom half dim blue.
+        let map = RgbRaster::from_fn(32, 16, |_, y| {
+            if y < 8 {
+                [4.0, 0.0, 0.0]
+            } else {
+                [0.0, 0.0, 0.5]
+            }
+        });
+        matscan_scan::image_io::write_rgb_exr(
+            &path,
+            &map,
+            matscan_scan::image_io::Precision::Float,
+        )
+        .unwrap();
+        let env = Environment::from_spec(&EnvSpec {
+            source: EnvSource::Map(path),
+            strength: 2.0,
+            rotation: 1.0,
+        })
+        .unwrap();
+        assert!((env.radiance(Vec3::Y) - Vec3::new(8.0, 0.0, 0.0)).length() < 1e-4);
+        assert!((env.radiance(-Vec3::Y) - Vec3::new(0.0, 0.0, 1.0)).length() < 1e-4);
+        let missing = Environment::from_spec(&EnvSpec {
+            source: EnvSource::Map(dir.path().join("none.exr")),
+            strength: 1.0,
+            rotation: 0.0,
+        });
+        assert!(missing.is_err());
     }
 
     #[test]

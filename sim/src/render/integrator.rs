@@ -7,8 +7,8 @@
 //! own estimator on the shared path (next-event estimation to each active
 //! light at every vertex; for the environment and the panel also emission
 //! found by BSDF sampling, combined with the power heuristic), so each slot
-//! is an unbiased image of that emitter alone and any capture is a sum of
-//! slots. One pass per position therefore yields every capture.
+//! is an image of that emitter alone (unbiased up to the indirect clamp)
+//! and any capture is a sum of slots. One pass per position therefore yields every capture.
 //!
 //! Path construction: box-filter jitter inside the pixel through the
 //! contract's camera model; at each vertex next-event estimation, then BSDF
@@ -104,6 +104,14 @@ pub struct PassImages {
     pub dropped_samples: u64,
 }
 
+/// Throughput and length of the path being traced.
+#[derive(Debug, Clone, Copy)]
+struct PathState {
+    beta: Vec3,
+    /// Scattering vertices so far (subsurface exits included).
+    vertices: u32,
+}
+
 /// Where a path scatters, and the clamp its light events get.
 #[derive(Debug, Clone, Copy)]
 struct Vertex {
@@ -125,10 +133,7 @@ const ROULETTE_FROM: u32 = 3;
 impl Pass<'_> {
     /// Renders every slot; rows run in parallel on the current rayon pool.
     pub fn render(&self, samples: u32, key: PassKey) -> PassImages {
-        let (w, h) = (
-            self.camera.intrinsics.width,
-            self.camera.intrinsics.height,
-        );
+        let (w, h) = (self.camera.intrinsics.width, self.camera.intrinsics.height);
         let samples = samples.max(1);
         let rows: Vec<(Vec<Vec3>, u64)> = (0..h)
             .into_par_iter()
@@ -143,10 +148,9 @@ impl Pass<'_> {
                     for _ in 0..samples {
                         sample.iter_mut().for_each(|s| *s = Vec3::ZERO);
                         let j = rng.next2();
-                        let ray = self.camera.ray(DVec2::new(
-                            x as f64 + j[0] as f64,
-                            y as f64 + j[1] as f64,
-                        ));
+                        let ray = self
+                            .camera
+                            .ray(DVec2::new(x as f64 + j[0] as f64, y as f64 + j[1] as f64));
                         self.trace(ray, &mut rng, &mut sample);
                         if sample.iter().all(|s| s.is_finite()) {
                             acc.iter_mut().zip(&sample).for_each(|(a, s)| *a += *s);
@@ -179,25 +183,27 @@ impl Pass<'_> {
 
     /// Adds one path's contributions to `out` (one entry per slot).
     pub fn trace(&self, mut ray: Ray, rng: &mut PixelRng, out: &mut [Vec3]) {
-        let mut beta = Vec3::ONE;
+        let mut path = PathState {
+            beta: Vec3::ONE,
+            vertices: 0,
+        };
         let mut prev: Option<Prev> = None;
-        let mut vertices = 0u32;
         // Scattering vertices without subsurface exits (an exit belongs to
         // its entry), for what counts as direct light.
         let mut bounces = 0u32;
         loop {
             let limit = self.limit(bounces);
             let Some(hit) = self.world.intersect(&ray) else {
-                self.add_environment(&ray, prev, beta, limit, out);
+                self.add_environment(&ray, prev, path.beta, limit, out);
                 break;
             };
             if let Surface::Panel { position } = hit.surface {
-                self.add_panel_emission(&ray, position, prev, beta, limit, out);
+                self.add_panel_emission(&ray, position, prev, path.beta, limit, out);
             }
-            if vertices >= self.max_depth {
+            if path.vertices >= self.max_depth {
                 break;
             }
-            vertices += 1;
+            path.vertices += 1;
             bounces += 1;
             let limit = self.limit(bounces);
             let wo = -ray.dir;
@@ -219,23 +225,22 @@ impl Pass<'_> {
                     (sp.position, sp.geometric_normal, shader, false)
                 }
             };
-            self.direct(p, ng, wo, &shader, on_panel, beta, limit, rng, out);
+            self.direct(p, ng, wo, &shader, on_panel, path.beta, limit, rng, out);
             let Some(s) = shader.sample(wo, rng.next3()) else {
                 break;
             };
             let at = Vertex { p, ng, limit };
-            let Some(next) = self.continue_path(at, &shader, s, &mut beta, rng, out, &mut vertices)
-            else {
+            let Some(next) = self.continue_path(at, &shader, s, &mut path, rng, out) else {
                 break;
             };
             prev = Some(next.0);
             ray = next.1;
-            if vertices > ROULETTE_FROM {
-                let q = beta.max_element().min(0.95);
-                if !(q > 0.0) || rng.next_f32() >= q {
+            if path.vertices > ROULETTE_FROM {
+                let q = path.beta.max_element().min(0.95);
+                if q.is_nan() || q <= 0.0 || rng.next_f32() >= q {
                     break;
                 }
-                beta /= q;
+                path.beta /= q;
             }
         }
     }
@@ -248,11 +253,11 @@ impl Pass<'_> {
         Vertex { p, ng, limit }: Vertex,
         shader: &Shader,
         s: Sampled,
-        beta: &mut Vec3,
+        path: &mut PathState,
         rng: &mut PixelRng,
         out: &mut [Vec3],
-        vertices: &mut u32,
     ) -> Option<(Prev, Ray)> {
+        let PathState { beta, vertices } = path;
         *beta *= s.weight;
         if !(beta.is_finite() && beta.max_element() > 0.0) {
             return None;

@@ -282,7 +282,9 @@ impl Panel {
 
     /// Diagonal length, for scale-relative epsilons.
     pub fn extent(&self) -> f32 {
-        2.0 * (self.half_u + self.half_v).length().max((self.half_u - self.half_v).length())
+        2.0 * (self.half_u + self.half_v)
+            .length()
+            .max((self.half_u - self.half_v).length())
     }
 }
 
@@ -337,14 +339,20 @@ mod tests {
         let m = 400;
         let mut hits = 0usize;
         for k in 0..m * m {
-            let u = [(k % m) as f32 / m as f32 + 0.5 / m as f32, (k / m) as f32 / m as f32];
+            let u = [
+                (k % m) as f32 / m as f32 + 0.5 / m as f32,
+                (k / m) as f32 / m as f32,
+            ];
             let d = crate::render::sampling::uniform_sphere(u);
             if p.intersect(&Ray::new(origin, d)).is_some() {
                 hits += 1;
             }
         }
         let reference = 4.0 * std::f64::consts::PI * hits as f64 / (m * m) as f64;
-        assert!((est - reference).abs() < 0.03 * reference, "{est} vs {reference}");
+        assert!(
+            (est - reference).abs() < 0.03 * reference,
+            "{est} vs {reference}"
+        );
     }
 
     #[test]

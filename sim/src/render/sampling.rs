@@ -175,7 +175,11 @@ impl Distribution1D {
     pub fn sample(&self, u: f32) -> (f32, f32, usize) {
         let n = self.func.len();
         // Largest i with cdf[i] <= u, kept inside [0, n - 1].
-        let i = self.cdf.partition_point(|&c| c <= u).saturating_sub(1).min(n - 1);
+        let i = self
+            .cdf
+            .partition_point(|&c| c <= u)
+            .saturating_sub(1)
+            .min(n - 1);
         let width = self.cdf[i + 1] - self.cdf[i];
         let du = if width > 0.0 {
             ((u - self.cdf[i]) / width).clamp(0.0, 1.0)
@@ -297,7 +301,12 @@ mod tests {
 
     #[test]
     fn frames_are_orthonormal_for_any_normal() {
-        for n in [Vec3::Z, -Vec3::Z, Vec3::X, Vec3::new(0.3, -0.5, -0.8).normalize()] {
+        for n in [
+            Vec3::Z,
+            -Vec3::Z,
+            Vec3::X,
+            Vec3::new(0.3, -0.5, -0.8).normalize(),
+        ] {
             let f = Frame::from_normal(n);
             assert!(f.t.dot(f.b).abs() < 1e-5 && f.t.dot(n).abs() < 1e-5);
             assert!((f.t.length() - 1.0).abs() < 1e-5 && (f.b.length() - 1.0).abs() < 1e-5);

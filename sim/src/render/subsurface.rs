@@ -45,10 +45,7 @@ pub fn walk(
     dir: Vec3,
     rng: &mut PixelRng,
 ) -> Option<WalkExit> {
-    let sigma = medium
-        .sigma_t
-        .max(Vec3::splat(1e-8))
-        .min(Vec3::splat(1e12));
+    let sigma = medium.sigma_t.max(Vec3::splat(1e-8)).min(Vec3::splat(1e12));
     let albedo = medium.albedo.clamp(Vec3::ZERO, Vec3::ONE);
     let (lo, hi) = world.object.bounds?;
     let pad = (hi - lo).max_element() * 1e-3 + world.epsilon(hi);
@@ -78,7 +75,7 @@ pub fn walk(
         if let Some((th, sp)) = world.intersect_object(&Ray::segment(pos, d, 0.0, t)) {
             let tr = (-sigma * th).exp();
             let pdf = probs.dot(tr);
-            if !(pdf > 0.0) {
+            if pdf.is_nan() || pdf <= 0.0 {
                 return None;
             }
             weight *= tr / pdf;
@@ -90,7 +87,7 @@ pub fn walk(
         }
         let tr = (-sigma * t).exp();
         let pdf = probs.dot(sigma * tr);
-        if !(pdf > 0.0) {
+        if pdf.is_nan() || pdf <= 0.0 {
             return None;
         }
         weight *= albedo * sigma * tr / pdf;

@@ -25,13 +25,19 @@ pub struct TruthMaps {
     pub mask: MaskRaster,
 }
 
-/// Per-pixel truth: (basecolor, roughness, metallic, transmission,
-/// subsurface) where the object is hit.
-type Texel = Option<([f32; 3], f32, f32, f32, f32)>;
+/// Truth at one pixel where the object is hit.
+#[derive(Debug, Clone, Copy)]
+struct Texel {
+    basecolor: [f32; 3],
+    roughness: f32,
+    metallic: f32,
+    transmission: f32,
+    subsurface: f32,
+}
 
 pub fn render_truth(world: &World, camera: &PinholeCamera, field: &MaterialField) -> TruthMaps {
     let (w, h) = (camera.intrinsics.width, camera.intrinsics.height);
-    let texels: Vec<Texel> = (0..w as usize * h as usize)
+    let texels: Vec<Option<Texel>> = (0..w as usize * h as usize)
         .into_par_iter()
         .map(|i| {
             let (x, y) = ((i % w as usize) as u32, (i / w as usize) as u32);
@@ -40,16 +46,16 @@ pub fn render_truth(world: &World, camera: &PinholeCamera, field: &MaterialField
                 return None;
             };
             let m = field.at(&sp);
-            Some((
-                m.basecolor.to_array(),
-                m.roughness,
-                m.metallic,
-                m.effective_transmission(),
-                m.effective_subsurface(),
-            ))
+            Some(Texel {
+                basecolor: m.basecolor.to_array(),
+                roughness: m.roughness,
+                metallic: m.metallic,
+                transmission: m.effective_transmission(),
+                subsurface: m.effective_subsurface(),
+            })
         })
         .collect();
-    let scalar = |f: fn(&([f32; 3], f32, f32, f32, f32)) -> f32| {
+    let scalar = |f: fn(&Texel) -> f32| {
         ScalarRaster::from_fn(w, h, |x, y| {
             texels[y as usize * w as usize + x as usize]
                 .as_ref()
@@ -58,12 +64,12 @@ pub fn render_truth(world: &World, camera: &PinholeCamera, field: &MaterialField
     };
     TruthMaps {
         basecolor: RgbRaster::from_fn(w, h, |x, y| {
-            texels[y as usize * w as usize + x as usize].map_or([0.0; 3], |t| t.0)
+            texels[y as usize * w as usize + x as usize].map_or([0.0; 3], |t| t.basecolor)
         }),
-        roughness: scalar(|t| t.1),
-        metallic: scalar(|t| t.2),
-        transmission: scalar(|t| t.3),
-        subsurface: scalar(|t| t.4),
+        roughness: scalar(|t| t.roughness),
+        metallic: scalar(|t| t.metallic),
+        transmission: scalar(|t| t.transmission),
+        subsurface: scalar(|t| t.subsurface),
         mask: MaskRaster::from_fn(w, h, |x, y| {
             texels[y as usize * w as usize + x as usize].is_some()
         }),

@@ -19,7 +19,9 @@ use matscan_scan::{Bvh, Mesh, Ray, SurfacePoint};
 pub enum Surface {
     Object(SurfacePoint),
     /// The backlight panel at `position`.
-    Panel { position: Vec3 },
+    Panel {
+        position: Vec3,
+    },
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -67,7 +69,11 @@ impl<'a> World<'a> {
         World {
             object,
             panel,
-            magnitude: if magnitude.is_finite() { magnitude } else { 0.0 },
+            magnitude: if magnitude.is_finite() {
+                magnitude
+            } else {
+                0.0
+            },
         }
     }
 

@@ -32,10 +32,17 @@ pub fn sphere(center: Vec3, radius: f32, rings: u32, segments: u32) -> Mesh {
         let theta = std::f32::consts::PI * r as f32 / rings as f32;
         for s in 0..=segments {
             let phi = 2.0 * std::f32::consts::PI * s as f32 / segments as f32;
-            let n = Vec3::new(theta.sin() * phi.cos(), theta.cos(), theta.sin() * phi.sin());
+            let n = Vec3::new(
+                theta.sin() * phi.cos(),
+                theta.cos(),
+                theta.sin() * phi.sin(),
+            );
             positions.push(center + n * radius);
             normals.push(n);
-            uvs.push(Vec2::new(s as f32 / segments as f32, 1.0 - r as f32 / rings as f32));
+            uvs.push(Vec2::new(
+                s as f32 / segments as f32,
+                1.0 - r as f32 / rings as f32,
+            ));
         }
     }
     let mut triangles = Vec::new();
