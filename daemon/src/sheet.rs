@@ -10,6 +10,7 @@
 
 use crate::font;
 use anyhow::{Context, Result};
+use matscan_calib::{calibrate_bundle, CalibOptions, PositionMaps};
 use matscan_scan::bundle::TruthImage;
 use matscan_scan::raster::{MaskRaster, Raster, RgbRaster, ScalarRaster};
 use matscan_scan::{Bundle, Param, TruthMap};
@@ -31,6 +32,16 @@ const MAX_TILE: u32 = 192;
 /// Draws the contact sheet of the bundle at `scan` into `out` (PNG).
 pub fn draw_contact_sheet(scan: &Path, out: &Path) -> Result<()> {
     let bundle = Bundle::open(scan).with_context(|| format!("opening scan {}", scan.display()))?;
+    // Calibration maps are drawn too: a pose or light mix-up shows as maps
+    // that disagree with the photos above them. A scan that cannot be
+    // calibrated still gets its sheet, with the reason on stderr.
+    let calibration = match calibrate_bundle(&bundle, &CalibOptions::default()) {
+        Ok(c) => Some(c),
+        Err(e) => {
+            eprintln!("warning: no calibration rows on the sheet: {e}");
+            None
+        }
+    };
     let mut rows: Vec<(String, Vec<Tile>)> = Vec::new();
     for position in &bundle.manifest.positions {
         let mut photos = Vec::new();
@@ -75,6 +86,13 @@ pub fn draw_contact_sheet(scan: &Path, out: &Path) -> Result<()> {
             rows.push((format!("{} truth", position.name), truth));
         }
 
+        if let Some(pc) = calibration
+            .as_ref()
+            .and_then(|c| c.position(&position.name))
+        {
+            rows.push((format!("{} calib", position.name), calib_tiles(&pc.maps)));
+        }
+
         let mut estimates = Vec::new();
         for param in Param::ALL {
             let path = scan
@@ -93,6 +111,64 @@ pub fn draw_contact_sheet(scan: &Path, out: &Path) -> Result<()> {
     }
     let title = format!("{}  {}", bundle.manifest.name, scan.display());
     compose(&title, &rows, out)
+}
+
+/// Normal and view as colours (`0.5 + 0.5 v`), depth normalized over the
+/// object, cosines as grey (negative as black), shadows per light.
+fn calib_tiles(maps: &PositionMaps) -> Vec<Tile> {
+    let g = &maps.geometry;
+    let as_colour = |r: &RgbRaster| {
+        let data = r
+            .data
+            .iter()
+            .zip(&g.mask.data)
+            .map(|(v, &m)| {
+                // sRGB previews expect linear values: undo the curve so the
+                // encoded colour reads as the vector.
+                let c = v.map(|x| 0.5 + 0.5 * x);
+                if m {
+                    c.map(matscan_scan::image_io::srgb_to_linear)
+                } else {
+                    [0.0; 3]
+                }
+            })
+            .collect();
+        Raster {
+            width: r.width,
+            height: r.height,
+            data,
+        }
+    };
+    let (lo, hi) = g
+        .depth
+        .data
+        .iter()
+        .zip(&g.mask.data)
+        .filter(|(_, &m)| m)
+        .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), (&d, _)| {
+            (lo.min(d), hi.max(d))
+        });
+    let span = (hi - lo).max(1e-12);
+    let depth = g.depth.map(|&d| {
+        if d > 0.0 {
+            ((d - lo) / span).clamp(0.0, 1.0)
+        } else {
+            0.0
+        }
+    });
+    let mut tiles = vec![
+        tile_rgb("normal", &as_colour(&g.normal)),
+        tile_scalar("depth", &depth),
+        tile_scalar("cos nv", &g.cos_nv),
+    ];
+    for l in &maps.lights {
+        tiles.push(tile_scalar(&format!("cos nl {}", l.light), &l.cos_nl));
+        tiles.push(tile_scalar(
+            &format!("shadow {}", l.light),
+            &l.shadow(&g.mask),
+        ));
+    }
+    tiles
 }
 
 /// The luminance that maps to white: a high percentile, so a few specular

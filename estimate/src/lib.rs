@@ -12,7 +12,7 @@
 //! Out of scope: building the input channels from a scan, running the five
 //! networks in order, and training loops. Feature `train` adds burn's
 //! autodiff and optimizers (and `backend::training_device`) for a trainer;
-//! its test (`tests/training.rs`) runs with `--features train`.
+//! the test build enables them too, for `tests/training.rs`.
 //!
 //! # Performance
 //!
