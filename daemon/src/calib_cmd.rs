@@ -76,8 +76,15 @@ fn print_report(report: &CheckReport) {
         for l in &p.lights {
             match l.correlation {
                 Some(c) => println!(
-                    "  {} ({}): shading correlation {c:.3} over {} px",
-                    l.capture, l.light, l.pixels
+                    "  {} ({}): shading correlation {c:.3} over {} px{}",
+                    l.capture,
+                    l.light,
+                    l.pixels,
+                    if c < 0.5 {
+                        " (weak: expected on textured or glossy objects; near 0 or below means a misplaced light)"
+                    } else {
+                        ""
+                    }
                 ),
                 None => println!(
                     "  {} ({}): no shading variation to compare",

@@ -126,11 +126,11 @@ impl InceptionUnit {
     /// The unit on a full input.
     fn forward(&self, x: Tensor<4>) -> Tensor<4> {
         let channels = x.dims()[1];
-        self.from_reduced(self.reduce.pointwise(x, 0..channels, true))
+        self.after_reduction(self.reduce.pointwise(x, 0..channels, true))
     }
 
     /// The unit from the summed 1x1 reductions `[n, 3 track, h, w]` onwards.
-    fn from_reduced(&self, reduced: Tensor<4>) -> Tensor<4> {
+    fn after_reduction(&self, reduced: Tensor<4>) -> Tensor<4> {
         let mut tracks = reduced.split(self.track, 1).into_iter();
         let (Some(point), Some(mid), Some(wide)) = (tracks.next(), tracks.next(), tracks.next())
         else {
@@ -267,7 +267,7 @@ impl Core {
             let all = self.width + self.inputs;
             reduced = reduced + self.unit.reduce.pointwise(inputs, self.width..all, false);
         }
-        let residual = self.unit.from_reduced(reduced);
+        let residual = self.unit.after_reduction(reduced);
         leaky_relu(features + residual.mul_scalar(RESIDUAL_SCALE), LEAKY_SLOPE)
     }
 }

@@ -180,14 +180,11 @@ fn roughness_fuses_one_half_and_keeps_illumination_per_view() {
     assert_ne!(bits(&alone.per_view[0]), bits(&out.per_view[0]));
 }
 
+/// Mask value at (row, column).
+type Mask<'a> = &'a dyn Fn(usize, usize) -> f32;
+
 /// Views of one value everywhere except the mask.
-fn filled(
-    kind: ParamKind,
-    h: usize,
-    w: usize,
-    mask: &dyn Fn(usize, usize) -> f32,
-    value: f32,
-) -> Tensor<4> {
+fn filled(kind: ParamKind, h: usize, w: usize, mask: Mask, value: f32) -> Tensor<4> {
     let c = kind.inputs().len();
     let mut data = vec![value; c * h * w];
     for y in 0..h {
@@ -205,7 +202,7 @@ fn extreme_inputs_give_finite_outputs() {
     let one_pixel = |y: usize, x: usize| f32::from(y == 18 && x == 7);
     let one_column = |_: usize, x: usize| f32::from(x == 11);
     let one_row = |y: usize, _: usize| f32::from(y == 0);
-    let masks: [(&str, &dyn Fn(usize, usize) -> f32); 4] = [
+    let masks: [(&str, Mask); 4] = [
         ("full mask", &everywhere),
         ("holes everywhere but one pixel", &one_pixel),
         ("one-pixel-wide column", &one_column),

@@ -134,12 +134,7 @@ pub fn look_at(eye: DVec3, target: DVec3, up: DVec3) -> DMat4 {
     let z = (target - eye).normalize();
     let x = z.cross(up).normalize();
     let y = z.cross(x);
-    DMat4::from_cols(
-        x.extend(0.0),
-        y.extend(0.0),
-        z.extend(0.0),
-        eye.extend(1.0),
-    )
+    DMat4::from_cols(x.extend(0.0), y.extend(0.0), z.extend(0.0), eye.extend(1.0))
 }
 
 /// Row-major 16 numbers (the manifest's layout) to a matrix.

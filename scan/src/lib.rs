@@ -31,10 +31,10 @@ pub mod param;
 pub mod raster;
 
 pub use bundle::{Bundle, BundleWriter, TruthImage, TruthKind, TruthMap};
-pub use image_io::Precision;
 pub use bvh::{offset_origin, offset_origin_scaled, Bvh, Hit, Ray, RayCaster};
 pub use camera::{Intrinsics, PinholeCamera};
 pub use error::ScanError;
+pub use image_io::Precision;
 pub use manifest::{
     Capture, CaptureRole, Encoding, Light, LightKind, Manifest, Pattern, Position, FORMAT,
 };

@@ -51,9 +51,19 @@ impl Material {
     /// Every input clamped to its valid range and made finite, so that no
     /// caller can feed the BSDF a NaN.
     pub fn sanitized(&self) -> Material {
-        let c = |x: f32| if x.is_finite() { x.clamp(0.0, 1.0) } else { 0.0 };
+        let c = |x: f32| {
+            if x.is_finite() {
+                x.clamp(0.0, 1.0)
+            } else {
+                0.0
+            }
+        };
         Material {
-            basecolor: Vec3::new(c(self.basecolor.x), c(self.basecolor.y), c(self.basecolor.z)),
+            basecolor: Vec3::new(
+                c(self.basecolor.x),
+                c(self.basecolor.y),
+                c(self.basecolor.z),
+            ),
             roughness: c(self.roughness),
             metallic: c(self.metallic),
             transmission: c(self.transmission),
