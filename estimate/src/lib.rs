@@ -9,8 +9,16 @@
 //! - [`weights`]: versioned weight files.
 //! - [`backend`]: explicit CPU device choice (flex by default).
 //!
-//! Out of scope: building the input channels from a scan, running the five
-//! networks in order, and training loops. Feature `train` adds burn's
+//! The estimation pipeline, scan to `estimate/`:
+//! - [`views`]: which (position, lit capture) pairs are used.
+//! - [`inputs`]: each network's input tensors from photos and calibration.
+//! - [`plan`]: estimated, given or skipped per parameter; network stages.
+//! - [`models`]: the networks a run uses and their model ids.
+//! - [`pipeline`]: runs it all ([`estimate`]).
+//! - [`metrics`]: MAD, MSE, PSNR against ground truth.
+//! - [`output`]: the atomic `estimate/` folder and `result.toml`.
+//!
+//! Out of scope: training loops. Feature `train` adds burn's
 //! autodiff and optimizers (and `backend::training_device`) for a trainer;
 //! the test build enables them too, for `tests/training.rs`.
 //!
@@ -21,12 +29,24 @@
 pub mod backend;
 pub mod blocks;
 pub mod fusion;
+pub mod inputs;
+pub mod metrics;
+pub mod models;
 pub mod network;
+pub mod output;
+pub mod pipeline;
+pub mod plan;
 pub mod pyramid;
 pub mod spec;
+pub mod views;
 pub mod weights;
 
 pub use backend::{cpu_device, CpuBackend};
 pub use network::{ConfigError, InputError, NetConfig, NetOutput, ParamNet};
 pub use spec::{InputChannel, OutputChannel, ParamKind};
+pub use models::{ModelSource, Models, ModelsError};
+pub use output::{ResultFile, Status};
+pub use pipeline::{estimate, EstimateError, EstimateOptions, EstimateReport};
+pub use plan::{Given, PlanError};
+pub use views::ViewFilter;
 pub use weights::{WeightSource, WeightsError};

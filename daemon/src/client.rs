@@ -1,0 +1,333 @@
+//! `matscan capture-now` and `matscan status`: clients of the daemon's
+//! control socket (protocol in `docs/daemon-protocol.md`).
+//!
+//! Exit codes (also documented there): 0 success; 1 a usage or protocol
+//! error; 3 the daemon is unreachable; 4 the daemon refused the request
+//! (busy, unknown profile, stopping); 5 the capture failed.
+//!
+//! Boundaries: talks to the socket and prints; no capture logic.
+
+use crate::service::config::DEFAULT_SOCKET;
+use clap::Args;
+use serde_json::{json, Value};
+use std::io::{BufRead, BufReader, Write};
+use std::os::unix::net::UnixStream;
+use std::path::{Path, PathBuf};
+
+#[derive(Debug, Args)]
+pub struct CaptureNowArgs {
+    /// The daemon's control socket.
+    #[arg(long, default_value = DEFAULT_SOCKET)]
+    pub socket: PathBuf,
+    /// Follow the capture and print the scan's folder and summary.
+    #[arg(long)]
+    pub wait: bool,
+    /// Print one JSON object (with `--wait`: `scan` and `summary`).
+    #[arg(long)]
+    pub json: bool,
+    /// Capture profile (default: the daemon's `default_profile`).
+    #[arg(long)]
+    pub profile: Option<String>,
+}
+
+#[derive(Debug, Args)]
+pub struct StatusArgs {
+    /// The daemon's control socket.
+    #[arg(long, default_value = DEFAULT_SOCKET)]
+    pub socket: PathBuf,
+    /// Print the daemon's reply as JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum ClientError {
+    #[error("{socket}: cannot reach the matscan daemon ({source}); is `matscan daemon` running?")]
+    Unreachable {
+        socket: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{socket}: {message}")]
+    Protocol { socket: PathBuf, message: String },
+    #[error("the daemon refused: {0}")]
+    Refused(String),
+    #[error("capture failed: {0}")]
+    CaptureFailed(String),
+}
+
+impl ClientError {
+    /// The process exit code for this error.
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            ClientError::Protocol { .. } => 1,
+            ClientError::Unreachable { .. } => 3,
+            ClientError::Refused(_) => 4,
+            ClientError::CaptureFailed(_) => 5,
+        }
+    }
+}
+
+/// A line-oriented JSON connection to the daemon.
+pub struct Connection {
+    socket: PathBuf,
+    writer: UnixStream,
+    reader: BufReader<UnixStream>,
+}
+
+impl Connection {
+    pub fn open(socket: &Path) -> Result<Connection, ClientError> {
+        let unreachable = |source| ClientError::Unreachable {
+            socket: socket.to_path_buf(),
+            source,
+        };
+        let writer = UnixStream::connect(socket).map_err(unreachable)?;
+        let reader = BufReader::new(writer.try_clone().map_err(unreachable)?);
+        Ok(Connection {
+            socket: socket.to_path_buf(),
+            writer,
+            reader,
+        })
+    }
+
+    fn protocol(&self, message: String) -> ClientError {
+        ClientError::Protocol {
+            socket: self.socket.clone(),
+            message,
+        }
+    }
+
+    pub fn send(&mut self, request: &Value) -> Result<(), ClientError> {
+        let mut line = request.to_string();
+        line.push('\n');
+        self.writer
+            .write_all(line.as_bytes())
+            .map_err(|e| self.protocol(format!("sending a request: {e}")))
+    }
+
+    /// The next reply line; an error if the daemon hung up.
+    pub fn receive(&mut self) -> Result<Value, ClientError> {
+        let mut line = String::new();
+        let n = self
+            .reader
+            .read_line(&mut line)
+            .map_err(|e| self.protocol(format!("reading a reply: {e}")))?;
+        if n == 0 {
+            return Err(self.protocol("the daemon closed the connection".into()));
+        }
+        serde_json::from_str(&line).map_err(|e| self.protocol(format!("bad reply `{line}`: {e}")))
+    }
+
+    /// Sends `request` and returns its reply, or `Refused` for `ok: false`.
+    pub fn request(&mut self, request: &Value) -> Result<Value, ClientError> {
+        self.send(request)?;
+        let reply = self.receive()?;
+        if reply["ok"] == false {
+            return Err(ClientError::Refused(
+                reply["error"]
+                    .as_str()
+                    .unwrap_or("no reason given")
+                    .to_string(),
+            ));
+        }
+        Ok(reply)
+    }
+}
+
+/// What `capture-now` produced.
+#[derive(Debug, Clone, PartialEq)]
+pub enum CaptureNow {
+    /// Queued (without `--wait`).
+    Queued { job: u64 },
+    /// Captured and published (with `--wait`).
+    Captured {
+        job: u64,
+        scan: PathBuf,
+        summary: Value,
+    },
+}
+
+/// Asks for a capture and, with `wait`, follows it to the end; `progress`
+/// hears each progress event.
+pub fn request_capture(
+    socket: &Path,
+    profile: Option<&str>,
+    wait: bool,
+    progress: &mut dyn FnMut(&Value),
+) -> Result<CaptureNow, ClientError> {
+    let mut conn = Connection::open(socket)?;
+    let mut request = json!({"cmd": "capture"});
+    if let Some(p) = profile {
+        request["profile"] = json!(p);
+    }
+    let reply = conn.request(&request)?;
+    let job = reply["job"]
+        .as_u64()
+        .ok_or_else(|| conn.protocol(format!("a capture reply without a job: {reply}")))?;
+    if !wait {
+        return Ok(CaptureNow::Queued { job });
+    }
+    conn.send(&json!({"cmd": "watch", "job": job}))?;
+    loop {
+        let event = conn.receive()?;
+        match event["event"].as_str() {
+            Some("done") => {
+                let scan = event["scan"].as_str().map(PathBuf::from).ok_or_else(|| {
+                    conn.protocol(format!("a done event without a scan: {event}"))
+                })?;
+                return Ok(CaptureNow::Captured {
+                    job,
+                    scan,
+                    summary: event["summary"].clone(),
+                });
+            }
+            Some("failed") => {
+                return Err(ClientError::CaptureFailed(
+                    event["error"]
+                        .as_str()
+                        .unwrap_or("no reason given")
+                        .to_string(),
+                ))
+            }
+            Some(_) => progress(&event),
+            None if event["ok"] == false => {
+                return Err(ClientError::Refused(
+                    event["error"]
+                        .as_str()
+                        .unwrap_or("no reason given")
+                        .to_string(),
+                ))
+            }
+            None => return Err(conn.protocol(format!("unexpected reply {event}"))),
+        }
+    }
+}
+
+/// `matscan capture-now`: prints what happened; returns the exit code.
+pub fn capture_now(args: &CaptureNowArgs) -> u8 {
+    let show_progress = args.wait && !args.json;
+    let mut progress = |e: &Value| {
+        if show_progress && e["event"] == "progress" {
+            eprintln!(
+                "{}/{} {}",
+                e["done"],
+                e["total"],
+                e["what"].as_str().unwrap_or("")
+            );
+        }
+    };
+    match request_capture(
+        &args.socket,
+        args.profile.as_deref(),
+        args.wait,
+        &mut progress,
+    ) {
+        Ok(CaptureNow::Queued { job }) => {
+            if args.json {
+                println!("{}", json!({"job": job}));
+            } else {
+                println!("capture queued as job {job}");
+            }
+            0
+        }
+        Ok(CaptureNow::Captured { job, scan, summary }) => {
+            if args.json {
+                println!("{}", json!({"job": job, "scan": scan, "summary": summary}));
+            } else {
+                println!("{}", scan.display());
+                println!(
+                    "job {job}: {} positions, {} photos, {} retries, {:.1} s (profile {})",
+                    summary["positions"],
+                    summary["photos"],
+                    summary["retries"],
+                    summary["seconds"].as_f64().unwrap_or(0.0),
+                    summary["profile"].as_str().unwrap_or("?"),
+                );
+                if let Some(left) = summary["left_out"].as_array().filter(|l| !l.is_empty()) {
+                    for l in left {
+                        println!("  left out {}", l.as_str().unwrap_or(""));
+                    }
+                }
+            }
+            0
+        }
+        Err(e) => report(&e, args.json),
+    }
+}
+
+/// The daemon's `status` reply.
+pub fn fetch_status(socket: &Path) -> Result<Value, ClientError> {
+    Connection::open(socket)?.request(&json!({"cmd": "status"}))
+}
+
+/// `matscan status`: prints the rig, the queue and the last scans; returns
+/// the exit code.
+pub fn status(args: &StatusArgs) -> u8 {
+    match fetch_status(&args.socket) {
+        Ok(s) if args.json => {
+            println!("{s}");
+            0
+        }
+        Ok(s) => {
+            print!("{}", format_status(&s));
+            0
+        }
+        Err(e) => report(&e, args.json),
+    }
+}
+
+/// The human-readable form of a `status` reply.
+pub fn format_status(s: &Value) -> String {
+    let text = |v: &Value| v.as_str().unwrap_or("?").to_string();
+    let mut out = format!(
+        "rig:    {}\nstate:  {}\n",
+        text(&s["rig"]),
+        text(&s["state"])
+    );
+    if let Some(c) = s["current"].as_object() {
+        let p = &c["progress"];
+        out += &format!(
+            "now:    job {} (profile {}) {}\n",
+            c["job"],
+            text(&c["profile"]),
+            if p.is_null() {
+                "starting".to_string()
+            } else {
+                format!("{}/{} {}", p["done"], p["total"], text(&p["what"]))
+            }
+        );
+    }
+    let queue = s["queue"].as_array().map_or(0, Vec::len);
+    out += &format!("queue:  {queue} waiting\n");
+    if let Some(e) = s["last_error"].as_str() {
+        out += &format!("error:  {e}\n");
+    }
+    let scans = s["last_scans"].as_array().cloned().unwrap_or_default();
+    if scans.is_empty() {
+        out += "scans:  none yet\n";
+    } else {
+        out += "scans:\n";
+        for scan in scans {
+            let check = match scan["check"]["verdict"].as_str() {
+                Some("passed") => "check passed".to_string(),
+                Some("problems") => format!("check problems: {}", scan["check"]["problems"]),
+                Some("failed") => format!("check failed: {}", text(&scan["check"]["error"])),
+                _ => "checking".to_string(),
+            };
+            out += &format!("  job {} {} ({check})\n", scan["job"], text(&scan["scan"]));
+        }
+    }
+    out
+}
+
+fn report(e: &ClientError, json: bool) -> u8 {
+    if json {
+        println!(
+            "{}",
+            json!({"error": e.to_string(), "exit_code": e.exit_code()})
+        );
+    } else {
+        eprintln!("error: {e}");
+    }
+    e.exit_code()
+}

@@ -1,0 +1,136 @@
+//! `matscan estimate`: the five BSDF parameter maps of a scan, written to
+//! `estimate/` (see `matscan_estimate::pipeline`).
+//!
+//! Weights: `--weights DIR` with `<param>.weights` per network, else the
+//! weights embedded in the binary. This build embeds none until trained
+//! weights exist, so without `--weights` the command refuses and says
+//! where it looked.
+
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use matscan_estimate::models::weights_file_name;
+use matscan_estimate::plan::{parse_given, parse_param};
+use matscan_estimate::weights::EMBEDDED;
+use matscan_estimate::{
+    cpu_device, estimate, EstimateOptions, ModelSource, ParamKind, Status, ViewFilter,
+};
+use std::path::PathBuf;
+
+/// The flags of `matscan estimate`.
+#[derive(Args, Debug, Clone)]
+pub struct EstimateArgs {
+    /// The scan folder.
+    pub scan: PathBuf,
+    /// Output folder (default: SCAN/estimate).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// A known parameter: a constant in [0, 1] or an EXR map in the
+    /// reference camera's image, e.g. `--given transmission=0`,
+    /// `--given roughness=map.exr`. Repeatable.
+    #[arg(long, value_name = "P=V|FILE")]
+    pub given: Vec<String>,
+    /// Only these parameters (and what they need), comma-separated.
+    #[arg(long, value_delimiter = ',', value_name = "P,...")]
+    pub only: Vec<String>,
+    /// Only these views: a capture name, or POSITION/CAPTURE; comma-separated.
+    #[arg(long, value_delimiter = ',', value_name = "VIEW,...")]
+    pub views: Vec<String>,
+    /// Only these positions, comma-separated.
+    #[arg(long, value_delimiter = ',', value_name = "POSITION,...")]
+    pub positions: Vec<String>,
+    /// Folder with the trained networks, `<param>.weights` each (default:
+    /// the weights built into this binary).
+    #[arg(long, value_name = "DIR")]
+    pub weights: Option<PathBuf>,
+}
+
+/// Runs `matscan estimate`.
+pub fn run(args: &EstimateArgs) -> Result<()> {
+    let given = args
+        .given
+        .iter()
+        .map(|g| parse_given(g))
+        .collect::<Result<Vec<_>, _>>()?;
+    let only = if args.only.is_empty() {
+        None
+    } else {
+        Some(
+            args.only
+                .iter()
+                .map(|p| parse_param(p))
+                .collect::<Result<Vec<ParamKind>, _>>()?,
+        )
+    };
+    let models = match &args.weights {
+        Some(dir) => {
+            if !dir.is_dir() {
+                bail!("--weights {}: no such folder", dir.display());
+            }
+            ModelSource::Dir(dir.clone())
+        }
+        None if EMBEDDED.is_empty() => bail!(
+            "no trained weights: this build embeds none (they would come from \
+             estimate/weights/ at build time); pass --weights DIR with {}",
+            ParamKind::ALL
+                .iter()
+                .map(|k| weights_file_name(*k))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+        None => ModelSource::Embedded,
+    };
+    let options = EstimateOptions {
+        out: args.out.clone(),
+        given,
+        only,
+        filter: ViewFilter {
+            positions: args.positions.clone(),
+            views: args.views.clone(),
+        },
+        ..EstimateOptions::default()
+    };
+    let report = estimate(&args.scan, models, &options, &cpu_device())
+        .with_context(|| format!("estimating {}", args.scan.display()))?;
+    let result = &report.result;
+    for w in &result.warnings {
+        eprintln!("warning: {w}");
+    }
+    for reason in &result.left_out {
+        eprintln!("left out: {reason}");
+    }
+    println!(
+        "reference position {}, {} views",
+        result.reference_position,
+        result.views.len()
+    );
+    for kind in ParamKind::ALL {
+        let Some(entry) = result.param(kind) else {
+            continue;
+        };
+        let line = match entry.status {
+            Status::Estimated => format!(
+                "estimated ({})",
+                entry.model.as_deref().unwrap_or("unknown model")
+            ),
+            Status::Given => format!("given ({})", entry.source.as_deref().unwrap_or("")),
+            Status::Skipped => format!("skipped: {}", entry.reason.as_deref().unwrap_or("")),
+        };
+        let metrics = result
+            .metrics
+            .get(kind.name())
+            .map(|m| {
+                format!(
+                    "; MAD {:.4} MSE {:.5} PSNR {:.2} dB",
+                    m.mad, m.mse, m.psnr
+                )
+            })
+            .unwrap_or_default();
+        println!("{kind}: {line}{metrics}");
+    }
+    println!(
+        "{:.2} s; wrote {}",
+        result.timings.total_s,
+        report.out.display()
+    );
+    Ok(())
+}

@@ -1,0 +1,10 @@
+//! The `matscan` daemon service and its clients, as a library so that the
+//! binary (`src/main.rs`) and the integration tests (`tests/daemon*.rs`)
+//! share one implementation.
+//!
+//! - [`service`]: the capture sequencer, the control socket, systemd
+//!   notification and the estimation worker (`matscan daemon`);
+//! - [`client`]: `matscan capture-now` and `matscan status`.
+
+pub mod client;
+pub mod service;

@@ -1,0 +1,75 @@
+//! `matscan daemon`: the capture service of the scanner PC.
+//!
+//! - [`config`]: the TOML configuration, validated;
+//! - [`plan`]: the capture plan from a profile;
+//! - [`sequencer`]: carries a plan out on the rig's drivers and publishes
+//!   the scan bundle atomically;
+//! - [`rig`]: opens the configured rig (the simulated one, for now);
+//! - [`server`]: the daemon's life (socket, capture thread, stop);
+//! - [`socket`]: the control protocol (`docs/daemon-protocol.md`);
+//! - [`state`]: the queue and the jobs, shared between threads;
+//! - [`worker`]: the estimation worker (a calibration check for now);
+//! - [`notify`]: systemd notification.
+//!
+//! Boundaries: no estimation here; the worker is where it plugs in.
+
+pub mod config;
+pub mod notify;
+pub mod plan;
+pub mod rig;
+pub mod sequencer;
+pub mod server;
+pub mod socket;
+pub mod state;
+pub mod worker;
+
+use clap::Args;
+use std::path::PathBuf;
+use std::sync::atomic::AtomicBool;
+
+/// `matscan daemon` arguments.
+#[derive(Debug, Args)]
+pub struct DaemonArgs {
+    /// The configuration file (TOML; see docs/daemon-protocol.md).
+    #[arg(long)]
+    pub config: PathBuf,
+    /// Control socket path (overrides the config's `socket`; default
+    /// /run/matscan/matscan.sock).
+    #[arg(long)]
+    pub socket: Option<PathBuf>,
+    /// Scans folder (overrides the config's `scans`; default
+    /// /var/lib/matscan/scans).
+    #[arg(long)]
+    pub scans: Option<PathBuf>,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum DaemonError {
+    #[error(transparent)]
+    Config(#[from] config::ConfigError),
+    #[error(transparent)]
+    Server(#[from] server::ServerError),
+}
+
+/// The configuration `args` select: the file, then the command-line
+/// overrides.
+pub fn load_config(args: &DaemonArgs) -> Result<config::Config, DaemonError> {
+    let mut config = config::Config::load(&args.config)?;
+    if let Some(s) = &args.socket {
+        config.socket = s.clone();
+    }
+    if let Some(s) = &args.scans {
+        config.scans = s.clone();
+    }
+    Ok(config)
+}
+
+/// Runs the daemon until SIGTERM or SIGINT (exit code 0), or fails to start
+/// (exit code 1).
+pub fn run_daemon(args: &DaemonArgs) -> Result<(), DaemonError> {
+    let config = load_config(args)?;
+    server::install_signal_handlers()?;
+    let server = server::Server::bind(config, notify::Notifier::from_env())?;
+    server.run(&AtomicBool::new(false))?;
+    Ok(())
+}

@@ -1,0 +1,146 @@
+//! The capture plan: which photos to take at each position, from a profile
+//! (which parameters are given rather than estimated). Captures nobody will
+//! use are left out, each with the reason: no backlit photo when
+//! transmission is given, no checkerboards when subsurface is given.
+//!
+//! Boundaries: pure data; the sequencer (`super::sequencer`) carries it
+//! out.
+
+use super::config::Profile;
+use matscan_drivers::{Checker, Level, LightId};
+use matscan_scan::Param;
+use std::num::NonZeroU32;
+
+/// What the rig does for one photo (on top of the ambient scene).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Step {
+    /// Every rig light off, the projector black.
+    Ambient,
+    /// One flash alone at full power.
+    Flash(LightId),
+    /// The projector alone, uniformly at `level` (the thesis's grey image).
+    ProjectorUniform(Level),
+    /// The backlight panel alone.
+    Backlit,
+    /// The projector showing a checkerboard.
+    Checker(Checker),
+}
+
+impl Step {
+    /// Whether the photo must differ from ambient (a rig light is on).
+    pub fn is_lit(&self) -> bool {
+        !matches!(self, Step::Ambient)
+    }
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlannedCapture {
+    /// The capture's name in the manifest and its file stem.
+    pub name: String,
+    pub step: Step,
+}
+
+/// The photos of one position, in the order they are taken, and what was
+/// left out.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CapturePlan {
+    pub captures: Vec<PlannedCapture>,
+    /// One line per left-out capture kind, saying why.
+    pub left_out: Vec<String>,
+}
+
+/// The plan for `profile`; `checker_periods` are the small and large
+/// checkerboard periods in projector pixels (even, at least 2).
+pub fn plan(profile: &Profile, checker_periods: (NonZeroU32, NonZeroU32)) -> CapturePlan {
+    let mut captures = vec![PlannedCapture {
+        name: "ambient".into(),
+        step: Step::Ambient,
+    }];
+    for light in [LightId::Flash0, LightId::Flash1] {
+        captures.push(PlannedCapture {
+            name: light.name().into(),
+            step: Step::Flash(light),
+        });
+    }
+    captures.push(PlannedCapture {
+        name: "projector".into(),
+        step: Step::ProjectorUniform(Level::new(0.5).unwrap_or(Level::FULL)),
+    });
+    let mut left_out = Vec::new();
+    if profile.given.contains(&Param::Transmission) {
+        left_out.push("backlight: transmission is given".to_string());
+    } else {
+        captures.push(PlannedCapture {
+            name: "backlight".into(),
+            step: Step::Backlit,
+        });
+    }
+    if profile.given.contains(&Param::Subsurface) {
+        left_out.push("checkerboards: subsurface is given".to_string());
+    } else {
+        let (small, large) = checker_periods;
+        for period in [small, large] {
+            captures.push(PlannedCapture {
+                name: format!("checker_{period}"),
+                step: Step::Checker(Checker {
+                    period_px: period,
+                    phase_px: [0, 0],
+                    low: Level::ZERO,
+                    high: Level::FULL,
+                }),
+            });
+        }
+    }
+    CapturePlan { captures, left_out }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn periods() -> (NonZeroU32, NonZeroU32) {
+        (NonZeroU32::new(8).unwrap(), NonZeroU32::new(32).unwrap())
+    }
+
+    fn names(p: &CapturePlan) -> Vec<&str> {
+        p.captures.iter().map(|c| c.name.as_str()).collect()
+    }
+
+    #[test]
+    fn full_profile_takes_every_capture_ambient_first() {
+        let p = plan(&Profile::default(), periods());
+        assert_eq!(
+            names(&p),
+            [
+                "ambient",
+                "flash0",
+                "flash1",
+                "projector",
+                "backlight",
+                "checker_8",
+                "checker_32"
+            ]
+        );
+        assert!(p.left_out.is_empty());
+        assert!(!p.captures[0].step.is_lit());
+        assert!(p.captures[1..].iter().all(|c| c.step.is_lit()));
+    }
+
+    #[test]
+    fn given_transmission_drops_the_backlit_photo_and_given_subsurface_the_checkers() {
+        let given = |ps: &[Param]| Profile {
+            given: ps.iter().copied().collect(),
+        };
+        let p = plan(&given(&[Param::Transmission]), periods());
+        assert!(!names(&p).contains(&"backlight"));
+        assert!(names(&p).contains(&"checker_8"));
+        assert_eq!(p.left_out, ["backlight: transmission is given"]);
+
+        let p = plan(&given(&[Param::Subsurface, Param::Transmission]), periods());
+        assert_eq!(names(&p), ["ambient", "flash0", "flash1", "projector"]);
+        assert_eq!(p.left_out.len(), 2);
+
+        let p = plan(&given(&[Param::Roughness]), periods());
+        assert_eq!(p.captures.len(), 7, "lit captures serve every parameter");
+    }
+}

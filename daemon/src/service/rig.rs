@@ -1,0 +1,131 @@
+//! Opens the configured rig: for `rig = "simulated"`, a scene generated
+//! from the config's seed behind the drivers' simulated rig, whose
+//! geometry and calibration come from that same scene.
+//!
+//! Boundaries: builds a [`Rig`]; takes no photo.
+
+use super::config::{RigChoice, SimulatedRigConfig};
+use super::sequencer::{PositionGeometry, Rig, RigGeometry};
+use matscan_drivers::serial::BoardFaults;
+use matscan_drivers::sim_rig::{SimConfig, SimFaults, SimulatedRig};
+use matscan_drivers::DriverError;
+use matscan_sim::render::bundle_writer::checker_periods;
+use matscan_sim::scene::{generate, rig_to_manifest_lights, GeometrySource, Scene, SceneOptions};
+use std::num::NonZeroU32;
+
+/// Opens the rig `choice` names.
+pub fn open(choice: &RigChoice) -> Result<Rig, DriverError> {
+    match choice {
+        RigChoice::Simulated(c) => open_simulated(c),
+    }
+}
+
+fn open_simulated(c: &SimulatedRigConfig) -> Result<Rig, DriverError> {
+    let scene = generate(&SceneOptions {
+        seed: c.seed,
+        kind: c.kind,
+        geometry: c
+            .geometry
+            .map_or(GeometrySource::Random, GeometrySource::Kind),
+        width: c.size,
+        height: c.size,
+        positions: c.positions,
+        map_size: 64,
+    });
+    let geometry = geometry_of(&scene, c.size);
+    let config = SimConfig {
+        width: c.size,
+        height: c.size,
+        samples: c.samples,
+        seed: c.seed,
+        faults: SimFaults {
+            camera_lost_after: c.faults.camera_lost_after,
+            board: BoardFaults {
+                silent_after: c.faults.lights_silent_after,
+                dead_lights: c.faults.dead_lights.clone(),
+                ..BoardFaults::default()
+            },
+            disk_capacity: c.faults.disk_capacity,
+        },
+        ..SimConfig::default()
+    };
+    let rig = SimulatedRig::new(scene, config)?;
+    let (positioner, trigger): (Option<Box<dyn matscan_drivers::Positioner>>, _) = if c.turntable {
+        (Some(Box::new(rig.positioner)), None)
+    } else {
+        // Nobody turns the simulated object without a turntable, and
+        // nothing presses its footswitch: the sequencer waits for the
+        // press and times out with a clear error.
+        let trigger: Box<dyn matscan_drivers::Trigger> = Box::new(UnpressedFootswitch {
+            trigger: rig.trigger,
+            _button: rig.footswitch,
+        });
+        (None, Some(trigger))
+    };
+    Ok(Rig {
+        camera: Box::new(rig.camera),
+        lights: Box::new(rig.lights),
+        projector: Box::new(rig.projector),
+        positioner,
+        trigger,
+        disk: Some(Box::new(rig.disk)),
+        geometry,
+    })
+}
+
+/// The simulated footswitch with its button kept alive, so that waiting
+/// on it times out (no press) rather than failing as unplugged.
+struct UnpressedFootswitch {
+    trigger: matscan_drivers::sim_rig::SimTrigger,
+    _button: matscan_drivers::sim_rig::FootswitchButton,
+}
+
+impl matscan_drivers::Trigger for UnpressedFootswitch {
+    fn id(&self) -> &str {
+        self.trigger.id()
+    }
+
+    fn wait(
+        &mut self,
+        timeout: std::time::Duration,
+    ) -> Result<Option<matscan_drivers::Press>, DriverError> {
+        self.trigger.wait(timeout)
+    }
+}
+
+/// The manifest geometry of `scene` photographed at `size` x `size`
+/// (intrinsics scaled as the simulated camera scales them).
+pub fn geometry_of(scene: &Scene, size: u32) -> RigGeometry {
+    let mut intrinsics = scene.rig.intrinsics;
+    if intrinsics.width > 0 && intrinsics.height > 0 {
+        let sx = size as f64 / intrinsics.width as f64;
+        let sy = size as f64 / intrinsics.height as f64;
+        intrinsics.fx *= sx;
+        intrinsics.cx *= sx;
+        intrinsics.fy *= sy;
+        intrinsics.cy *= sy;
+        intrinsics.width = size;
+        intrinsics.height = size;
+    }
+    let mut scaled = scene.clone();
+    scaled.rig.intrinsics = intrinsics;
+    let (small, large) = checker_periods(&scaled);
+    let period = |p: u32| NonZeroU32::new(p.max(2)).unwrap_or(NonZeroU32::MIN);
+    RigGeometry {
+        name: scene.name.clone(),
+        mesh: scene.mesh.clone(),
+        intrinsics,
+        positions: scene
+            .rig
+            .positions
+            .iter()
+            .map(|p| PositionGeometry {
+                name: p.name.clone(),
+                camera_to_world: p.camera_to_world,
+                lights: rig_to_manifest_lights(p),
+                exposure_s: p.exposure_s,
+            })
+            .collect(),
+        checker_periods: (period(small), period(large)),
+    }
+}

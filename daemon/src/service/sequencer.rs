@@ -1,0 +1,516 @@
+//! The capture sequencer: carries out a [`CapturePlan`] on the rig's
+//! drivers and writes the scan bundle.
+//!
+//! Per position: lock the exposure, take ambient, then each light alone
+//! (flashes, the projector's grey image, the backlight, the checkerboards);
+//! every lit photo must differ from ambient, else it is retried and then
+//! fails naming the light. Between positions the positioner turns the
+//! object or, without one, the sequencer waits for the operator's press.
+//! The bundle is built in a hidden temporary folder in the scans folder and
+//! renamed into place only when complete (`BundleWriter`), so an error or a
+//! cancellation leaves nothing that looks like a scan.
+//!
+//! Boundaries: knows the driver traits and the bundle writer; where the
+//! geometry and calibration come from is the caller's ([`RigGeometry`]).
+
+use super::plan::{CapturePlan, Step};
+use matscan_drivers::{
+    monotonic_now, Camera, CameraSettings, DriverError, LightController, LightId, Positioner,
+    Projector, ProjectorPattern, Trigger,
+};
+use matscan_scan::bundle::BundleWriter;
+use matscan_scan::raster::RgbRaster;
+use matscan_scan::{Capture, Intrinsics, Light, Manifest, Mesh, Position, Precision, ScanError};
+use std::num::NonZeroU32;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+/// The known geometry and calibration of the rig and the object.
+#[derive(Debug, Clone)]
+pub struct RigGeometry {
+    /// Names the scans (`<name>` in the manifest).
+    pub name: String,
+    pub mesh: Mesh,
+    pub intrinsics: Intrinsics,
+    pub positions: Vec<PositionGeometry>,
+    /// Small and large checkerboard periods, projector pixels.
+    pub checker_periods: (NonZeroU32, NonZeroU32),
+}
+
+#[derive(Debug, Clone)]
+pub struct PositionGeometry {
+    pub name: String,
+    pub camera_to_world: glam::DMat4,
+    /// Every rig light in world space at this position (manifest form).
+    pub lights: Vec<Light>,
+    pub exposure_s: f32,
+}
+
+/// Accounts for the bytes a scan writes (a disk quota; the simulated rig's
+/// full-disk fault).
+pub trait DiskQuota {
+    fn reserve(&self, path: &Path, bytes: u64) -> Result<(), DriverError>;
+}
+
+impl DiskQuota for matscan_drivers::sim_rig::SimDisk {
+    fn reserve(&self, path: &Path, bytes: u64) -> Result<(), DriverError> {
+        matscan_drivers::sim_rig::SimDisk::reserve(self, path, bytes)
+    }
+}
+
+/// The rig's devices and what is known about them.
+pub struct Rig {
+    pub camera: Box<dyn Camera>,
+    pub lights: Box<dyn LightController>,
+    pub projector: Box<dyn Projector>,
+    /// `None`: the operator moves the object and presses `trigger`.
+    pub positioner: Option<Box<dyn Positioner>>,
+    pub trigger: Option<Box<dyn Trigger>>,
+    pub disk: Option<Box<dyn DiskQuota>>,
+    pub geometry: RigGeometry,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum CaptureError {
+    #[error("{0}")]
+    Driver(#[from] DriverError),
+    #[error("writing the scan: {0}")]
+    Scan(#[from] ScanError),
+    #[error(
+        "{device}: light `{light}` did not fire for capture `{capture}` at position \
+         {position} ({attempts} attempts; the photo differs from ambient by {difference:.2e}, \
+         expected at least {threshold:.2e})"
+    )]
+    LightDidNotFire {
+        device: String,
+        light: String,
+        capture: String,
+        position: String,
+        attempts: u32,
+        difference: f32,
+        threshold: f32,
+    },
+    #[error("{device}: no press within {waited:?} to continue at position {position}")]
+    OperatorTimeout {
+        device: String,
+        position: String,
+        waited: Duration,
+    },
+    #[error("the rig has {positions} positions but neither a positioner nor a trigger to move between them")]
+    CannotMove { positions: usize },
+    #[error("exposure {exposure_s} s at position {position} is not a valid camera setting")]
+    BadExposure { position: String, exposure_s: f32 },
+    #[error("the capture was cancelled (the daemon is stopping)")]
+    Cancelled,
+}
+
+/// Progress of one capture, reported after each photo.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Progress {
+    pub done: usize,
+    pub total: usize,
+    /// `<position>/<capture>` of the photo just taken.
+    pub what: String,
+}
+
+/// What a finished capture produced.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CaptureOutcome {
+    /// The published scan folder.
+    pub scan: PathBuf,
+    pub positions: usize,
+    pub photos: usize,
+    /// Lit photos that had to be retried.
+    pub retries: u32,
+    pub left_out: Vec<String>,
+    pub seconds: f64,
+}
+
+/// Knobs of one capture run.
+#[derive(Debug, Clone, Copy)]
+pub struct RunSettings {
+    pub light_retries: u32,
+    pub min_light_difference: f32,
+    pub operator_timeout: Duration,
+}
+
+/// The name of the side file recording the profile of a capture.
+pub const CAPTURE_INFO_FILE: &str = "capture.toml";
+
+impl Rig {
+    /// Takes every photo of `plan` at every position and publishes the scan
+    /// at `target` (which must not exist). `stop` is asked before each photo
+    /// and every 200 ms while waiting for the operator (the daemon also
+    /// beats its watchdog there); `progress` hears of each photo taken.
+    pub fn capture(
+        &mut self,
+        plan: &CapturePlan,
+        profile_info: &str,
+        target: &Path,
+        settings: &RunSettings,
+        stop: &dyn Fn() -> bool,
+        progress: &mut dyn FnMut(Progress),
+    ) -> Result<CaptureOutcome, CaptureError> {
+        let result = self.capture_inner(plan, profile_info, target, settings, stop, progress);
+        // Whatever happened, leave the rig dark; a failure here must not
+        // hide the capture's own error.
+        if let Err(e) = self.lights.all_off() {
+            tracing::warn!("switching the lights off after the capture: {e}");
+        }
+        if let Err(e) = self.projector.show(ProjectorPattern::Black) {
+            tracing::warn!("blanking the projector after the capture: {e}");
+        }
+        result
+    }
+
+    fn capture_inner(
+        &mut self,
+        plan: &CapturePlan,
+        profile_info: &str,
+        target: &Path,
+        settings: &RunSettings,
+        stop: &dyn Fn() -> bool,
+        progress: &mut dyn FnMut(Progress),
+    ) -> Result<CaptureOutcome, CaptureError> {
+        let start = Instant::now();
+        let count = self.geometry.positions.len();
+        if count > 1 && self.positioner.is_none() && self.trigger.is_none() {
+            return Err(CaptureError::CannotMove { positions: count });
+        }
+        let writer = BundleWriter::create(target)?;
+        self.lights.all_off()?;
+        self.projector.show(ProjectorPattern::Black)?;
+        self.home()?;
+        let total = count * plan.captures.len();
+        let mut positions = Vec::with_capacity(count);
+        let mut retries = 0;
+        for index in 0..count {
+            let geometry = self.geometry.positions[index].clone();
+            if index > 0 {
+                self.next_position(&geometry.name, settings, stop)?;
+            }
+            let exposure =
+                CameraSettings::new(geometry.exposure_s, 1.0, 5000).ok_or_else(|| {
+                    CaptureError::BadExposure {
+                        position: geometry.name.clone(),
+                        exposure_s: geometry.exposure_s,
+                    }
+                })?;
+            self.camera.lock(exposure)?;
+            let mut captures = Vec::new();
+            let mut ambient: Option<RgbRaster> = None;
+            for planned in &plan.captures {
+                if stop() {
+                    return Err(CaptureError::Cancelled);
+                }
+                let (frame, tries) = self.take(
+                    &planned.step,
+                    &planned.name,
+                    &geometry.name,
+                    ambient.as_ref(),
+                    settings,
+                )?;
+                retries += tries;
+                let file = writer.write_photo(
+                    &geometry.name,
+                    &planned.name,
+                    &frame.rgb,
+                    Precision::Half,
+                )?;
+                self.account(&writer, &file)?;
+                if planned.step == Step::Ambient {
+                    ambient = Some(frame.rgb.clone());
+                }
+                captures.push(self.manifest_capture(&planned.step, &planned.name, file, &frame));
+                progress(Progress {
+                    done: index * plan.captures.len() + captures.len(),
+                    total,
+                    what: format!("{}/{}", geometry.name, planned.name),
+                });
+            }
+            positions.push(Position {
+                name: geometry.name.clone(),
+                camera_to_world: geometry.camera_to_world,
+                lights: geometry.lights.clone(),
+                captures,
+                white_reference_mask: None,
+            });
+        }
+        // Leave the turntable where the next scan starts.
+        self.home()?;
+        writer.write_mesh(&self.geometry.mesh)?;
+        writer.write_file(CAPTURE_INFO_FILE, profile_info.as_bytes())?;
+        let manifest = Manifest {
+            units: "m".into(),
+            name: self.geometry.name.clone(),
+            created: rfc3339_now(),
+            camera: self.geometry.intrinsics,
+            positions,
+        };
+        let bundle = writer.finish(&manifest)?;
+        Ok(CaptureOutcome {
+            scan: bundle.root,
+            positions: count,
+            photos: total,
+            retries,
+            left_out: plan.left_out.clone(),
+            seconds: start.elapsed().as_secs_f64(),
+        })
+    }
+
+    /// Turns the positioner back to its first position.
+    fn home(&mut self) -> Result<(), CaptureError> {
+        if let Some(p) = self.positioner.as_mut() {
+            for _ in 0..p.count() {
+                if p.position() == 0 {
+                    break;
+                }
+                p.advance()?;
+            }
+        }
+        Ok(())
+    }
+
+    fn next_position(
+        &mut self,
+        name: &str,
+        settings: &RunSettings,
+        stop: &dyn Fn() -> bool,
+    ) -> Result<(), CaptureError> {
+        if let Some(p) = self.positioner.as_mut() {
+            p.advance()?;
+            self.camera.scene_changed(monotonic_now());
+            return Ok(());
+        }
+        let Some(trigger) = self.trigger.as_mut() else {
+            return Err(CaptureError::CannotMove {
+                positions: self.geometry.positions.len(),
+            });
+        };
+        tracing::info!("waiting for the operator to move the object to {name} and press");
+        let deadline = Instant::now() + settings.operator_timeout;
+        // Short waits so that a stop request is heard while the operator
+        // takes their time.
+        loop {
+            if stop() {
+                return Err(CaptureError::Cancelled);
+            }
+            let left = deadline.saturating_duration_since(Instant::now());
+            if left.is_zero() {
+                return Err(CaptureError::OperatorTimeout {
+                    device: trigger.id().to_string(),
+                    position: name.to_string(),
+                    waited: settings.operator_timeout,
+                });
+            }
+            if trigger
+                .wait(left.min(Duration::from_millis(200)))?
+                .is_some()
+            {
+                self.camera.scene_changed(monotonic_now());
+                return Ok(());
+            }
+        }
+    }
+
+    /// Sets the rig up for `step`, takes the photo and switches off again;
+    /// retries a lit photo that looks like ambient. Returns the frame and
+    /// the number of retries it took.
+    fn take(
+        &mut self,
+        step: &Step,
+        capture: &str,
+        position: &str,
+        ambient: Option<&RgbRaster>,
+        settings: &RunSettings,
+    ) -> Result<(matscan_drivers::Frame, u32), CaptureError> {
+        let attempts = settings.light_retries + 1;
+        let mut difference = 0.0;
+        for attempt in 0..attempts {
+            self.switch(step, true)?;
+            let frame = self.camera.capture();
+            let off = self.switch(step, false);
+            let frame = frame?;
+            off?;
+            let Some(ambient) = ambient.filter(|_| step.is_lit()) else {
+                return Ok((frame, 0));
+            };
+            difference = mean_abs_difference(&frame.rgb, ambient);
+            if difference >= settings.min_light_difference {
+                return Ok((frame, attempt));
+            }
+            tracing::warn!(
+                "{position}/{capture}: the photo looks like ambient (difference {difference:.2e}); \
+                 attempt {} of {attempts}",
+                attempt + 1
+            );
+        }
+        Err(CaptureError::LightDidNotFire {
+            device: self.device_of(step),
+            light: self.light_name(step),
+            capture: capture.to_string(),
+            position: position.to_string(),
+            attempts,
+            difference,
+            threshold: settings.min_light_difference,
+        })
+    }
+
+    fn switch(&mut self, step: &Step, on: bool) -> Result<(), CaptureError> {
+        match *step {
+            Step::Ambient => {}
+            Step::Flash(light) => {
+                if on {
+                    self.lights.on(light, matscan_drivers::Level::FULL)?
+                } else {
+                    self.lights.off(light)?
+                }
+            }
+            Step::Backlit => {
+                if on {
+                    self.lights
+                        .on(LightId::Backlight, matscan_drivers::Level::FULL)?
+                } else {
+                    self.lights.off(LightId::Backlight)?
+                }
+            }
+            Step::ProjectorUniform(level) => self.projector.show(if on {
+                ProjectorPattern::Uniform(level)
+            } else {
+                ProjectorPattern::Black
+            })?,
+            Step::Checker(c) => self.projector.show(if on {
+                ProjectorPattern::Checker(c)
+            } else {
+                ProjectorPattern::Black
+            })?,
+        }
+        self.camera.scene_changed(monotonic_now());
+        Ok(())
+    }
+
+    fn light_name(&self, step: &Step) -> String {
+        match step {
+            Step::Ambient => String::new(),
+            Step::Flash(l) => l.name().to_string(),
+            Step::Backlit => LightId::Backlight.name().to_string(),
+            Step::ProjectorUniform(_) | Step::Checker(_) => self.projector_name(),
+        }
+    }
+
+    fn device_of(&self, step: &Step) -> String {
+        match step {
+            Step::ProjectorUniform(_) | Step::Checker(_) => self.projector.id().to_string(),
+            _ => self.lights.id().to_string(),
+        }
+    }
+
+    /// The projector's name among the manifest lights.
+    fn projector_name(&self) -> String {
+        self.geometry
+            .positions
+            .first()
+            .and_then(|p| {
+                p.lights
+                    .iter()
+                    .find(|l| matches!(l.kind, matscan_scan::LightKind::Projector { .. }))
+            })
+            .map_or_else(|| "projector".to_string(), |l| l.name.clone())
+    }
+
+    fn manifest_capture(
+        &self,
+        step: &Step,
+        name: &str,
+        file: PathBuf,
+        frame: &matscan_drivers::Frame,
+    ) -> Capture {
+        let (lights, pattern) = match step {
+            Step::Ambient => (vec![], None),
+            Step::Flash(_) | Step::Backlit => (vec![self.light_name(step)], None),
+            Step::ProjectorUniform(l) => (
+                vec![self.projector_name()],
+                Some(ProjectorPattern::Uniform(*l).to_pattern()),
+            ),
+            Step::Checker(c) => (
+                vec![self.projector_name()],
+                Some(ProjectorPattern::Checker(*c).to_pattern()),
+            ),
+        };
+        Capture {
+            name: name.to_string(),
+            file,
+            exposure_s: frame.exposure_s as f64 * frame.gain as f64,
+            lights,
+            pattern,
+            encoding: None,
+        }
+    }
+
+    fn account(&self, writer: &BundleWriter, rel: &Path) -> Result<(), CaptureError> {
+        if let Some(disk) = &self.disk {
+            let path = writer.dir().join(rel);
+            let bytes = std::fs::metadata(&path)
+                .map_err(|source| ScanError::Io {
+                    path: path.clone(),
+                    source,
+                })?
+                .len();
+            disk.reserve(&writer.target().join(rel), bytes)?;
+        }
+        Ok(())
+    }
+}
+
+/// Mean over pixels and channels of `|a - b|` (0 when sizes differ, which
+/// the camera never produces within one scan).
+pub fn mean_abs_difference(a: &RgbRaster, b: &RgbRaster) -> f32 {
+    if a.data.len() != b.data.len() || a.data.is_empty() {
+        return 0.0;
+    }
+    let sum: f64 = a
+        .data
+        .iter()
+        .zip(&b.data)
+        .map(|(p, q)| (0..3).map(|c| (p[c] - q[c]).abs() as f64).sum::<f64>())
+        .sum();
+    let mean = sum / (3 * a.data.len()) as f64;
+    if mean.is_finite() {
+        mean as f32
+    } else {
+        0.0
+    }
+}
+
+/// Now as RFC 3339 UTC (`2026-11-23T08:40:00Z`), without a date crate.
+pub fn rfc3339_now() -> String {
+    let secs = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs());
+    rfc3339(secs)
+}
+
+/// `secs` since the Unix epoch as RFC 3339 UTC (civil-from-days, Howard
+/// Hinnant's algorithm).
+pub fn rfc3339(secs: u64) -> String {
+    let days = (secs / 86_400) as i64;
+    let rem = secs % 86_400;
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z.rem_euclid(146_097);
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let day = doy - (153 * mp + 2) / 5 + 1;
+    let month = if mp < 10 { mp + 3 } else { mp - 9 };
+    let year = yoe + era * 400 + i64::from(month <= 2);
+    format!(
+        "{year:04}-{month:02}-{day:02}T{:02}:{:02}:{:02}Z",
+        rem / 3600,
+        rem % 3600 / 60,
+        rem % 60
+    )
+}
+
+#[cfg(test)]
+mod tests;

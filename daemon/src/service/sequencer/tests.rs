@@ -1,0 +1,222 @@
+//! The sequencer on the simulated rig: the bundle it publishes, the plan's
+//! omissions, a flash that does not fire, the operator's press.
+
+use super::*;
+use crate::service::config::{FaultConfig, Profile, RigChoice, SimulatedRigConfig};
+use crate::service::plan::plan;
+use matscan_drivers::sim_rig::FootswitchButton;
+use matscan_scan::{Bundle, CaptureRole, Param};
+use matscan_sim::scene::SceneKind;
+
+fn sim(positions: usize, turntable: bool, faults: FaultConfig) -> RigChoice {
+    RigChoice::Simulated(SimulatedRigConfig {
+        seed: 2,
+        kind: SceneKind::TwoMat,
+        geometry: Some(matscan_sim::scene::GeometryKind::Sphere),
+        size: 24,
+        positions,
+        samples: 1,
+        turntable,
+        faults,
+    })
+}
+
+fn settings() -> RunSettings {
+    RunSettings {
+        light_retries: 1,
+        min_light_difference: 1e-3,
+        operator_timeout: Duration::from_secs(20),
+    }
+}
+
+fn run(rig: &mut Rig, profile: &Profile, target: &Path) -> Result<CaptureOutcome, CaptureError> {
+    let plan = plan(profile, rig.geometry.checker_periods);
+    let mut seen = Vec::new();
+    let out = rig.capture(
+        &plan,
+        "profile = \"test\"\n",
+        target,
+        &settings(),
+        &|| false,
+        &mut |p| seen.push(p),
+    );
+    if out.is_ok() {
+        assert_eq!(seen.len(), seen.last().unwrap().total);
+        assert_eq!(seen[0].what, "p0/ambient");
+    }
+    out
+}
+
+#[test]
+fn two_positions_on_the_turntable_give_a_valid_bundle_with_every_role() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut rig = crate::service::rig::open(&sim(2, true, FaultConfig::default())).unwrap();
+    let target = dir.path().join("scan-0001");
+    let out = run(&mut rig, &Profile::default(), &target).unwrap();
+    assert_eq!((out.positions, out.photos, out.retries), (2, 14, 0));
+    let bundle = Bundle::open(&target).unwrap();
+    bundle.verify_images().unwrap();
+    let m = &bundle.manifest;
+    assert_eq!((m.camera.width, m.camera.height), (24, 24));
+    assert_eq!(m.positions.len(), 2);
+    let p0 = &m.positions[0];
+    let roles: Vec<CaptureRole> = p0.captures_with_role().map(|(_, r)| r).collect();
+    assert_eq!(roles[0], CaptureRole::Ambient);
+    assert_eq!(
+        roles
+            .iter()
+            .filter(|r| matches!(r, CaptureRole::Lit { .. }))
+            .count(),
+        3
+    );
+    assert!(roles.contains(&CaptureRole::Backlit));
+    assert_eq!(
+        roles
+            .iter()
+            .filter(|r| matches!(r, CaptureRole::Pattern { .. }))
+            .count(),
+        2
+    );
+    // The turntable really turned: the two positions' photos differ.
+    let a = bundle.read_photo("p0", "ambient").unwrap();
+    let b = bundle.read_photo("p1", "ambient").unwrap();
+    assert!(mean_abs_difference(&a, &b) > 1e-3);
+    // And it is back home for the next scan.
+    assert_eq!(rig.positioner.as_ref().unwrap().position(), 0);
+    assert!(target.join(CAPTURE_INFO_FILE).exists());
+    let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().flatten().collect();
+    assert_eq!(names.len(), 1, "only the published scan, no temporary left");
+}
+
+#[test]
+fn a_profile_with_given_transmission_and_subsurface_takes_no_backlit_or_checker_photo() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut rig = crate::service::rig::open(&sim(1, true, FaultConfig::default())).unwrap();
+    let profile = Profile {
+        given: [Param::Transmission, Param::Subsurface]
+            .into_iter()
+            .collect(),
+    };
+    let target = dir.path().join("scan-0001");
+    let out = run(&mut rig, &profile, &target).unwrap();
+    assert_eq!(out.photos, 4);
+    assert_eq!(out.left_out.len(), 2);
+    let bundle = Bundle::open(&target).unwrap();
+    let p0 = &bundle.manifest.positions[0];
+    assert!(p0.backlit().is_none());
+    assert_eq!(p0.pattern_captures().count(), 0);
+    assert!(!target.join("views/p0/backlight.exr").exists());
+}
+
+#[test]
+fn a_dead_flash_is_retried_then_fails_naming_it_and_publishes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let faults = FaultConfig {
+        dead_lights: vec![LightId::Flash1],
+        ..FaultConfig::default()
+    };
+    let mut rig = crate::service::rig::open(&sim(1, true, faults)).unwrap();
+    let target = dir.path().join("scan-0001");
+    let err = run(&mut rig, &Profile::default(), &target).unwrap_err();
+    match &err {
+        CaptureError::LightDidNotFire {
+            light,
+            capture,
+            attempts,
+            ..
+        } => {
+            assert_eq!(
+                (light.as_str(), capture.as_str(), *attempts),
+                ("flash1", "flash1", 2)
+            );
+        }
+        other => panic!("expected LightDidNotFire, got {other}"),
+    }
+    assert!(
+        err.to_string().contains("light `flash1` did not fire"),
+        "{err}"
+    );
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+}
+
+#[test]
+fn without_a_turntable_the_sequencer_waits_for_the_operators_press() {
+    let dir = tempfile::tempdir().unwrap();
+    let RigChoice::Simulated(c) = sim(2, false, FaultConfig::default());
+    let scene = matscan_sim::scene::generate(&matscan_sim::scene::SceneOptions {
+        seed: c.seed,
+        kind: c.kind,
+        geometry: matscan_sim::scene::GeometrySource::Kind(c.geometry.unwrap()),
+        width: c.size,
+        height: c.size,
+        positions: 2,
+        map_size: 16,
+    });
+    let geometry = crate::service::rig::geometry_of(&scene, c.size);
+    let sim_rig = matscan_drivers::sim_rig::SimulatedRig::new(
+        scene,
+        matscan_drivers::sim_rig::SimConfig {
+            width: c.size,
+            height: c.size,
+            samples: 1,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let button: FootswitchButton = sim_rig.footswitch.clone();
+    let mut turntable = sim_rig.positioner;
+    let mut rig = Rig {
+        camera: Box::new(sim_rig.camera),
+        lights: Box::new(sim_rig.lights),
+        projector: Box::new(sim_rig.projector),
+        positioner: None,
+        trigger: Some(Box::new(sim_rig.trigger)),
+        disk: None,
+        geometry,
+    };
+    // The operator: turns the object by hand, then presses.
+    let operator = std::thread::spawn(move || {
+        std::thread::sleep(Duration::from_millis(300));
+        turntable.advance().unwrap();
+        button.press();
+    });
+    let target = dir.path().join("scan-0001");
+    let out = run(&mut rig, &Profile::default(), &target).unwrap();
+    operator.join().unwrap();
+    assert_eq!(out.positions, 2);
+    let bundle = Bundle::open(&target).unwrap();
+    let a = bundle.read_photo("p0", "ambient").unwrap();
+    let b = bundle.read_photo("p1", "ambient").unwrap();
+    assert!(
+        mean_abs_difference(&a, &b) > 1e-3,
+        "p1 was taken after the turn"
+    );
+}
+
+#[test]
+fn without_a_press_the_capture_times_out_naming_the_footswitch() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut rig = crate::service::rig::open(&sim(2, false, FaultConfig::default())).unwrap();
+    let plan = plan(&Profile::default(), rig.geometry.checker_periods);
+    let s = RunSettings {
+        operator_timeout: Duration::from_millis(300),
+        ..settings()
+    };
+    let target = dir.path().join("scan-0001");
+    let err = rig
+        .capture(&plan, "", &target, &s, &|| false, &mut |_| {})
+        .unwrap_err();
+    assert!(
+        err.to_string()
+            .starts_with("sim:footswitch: no press within"),
+        "{err}"
+    );
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+}
+
+#[test]
+fn rfc3339_formats_known_instants() {
+    assert_eq!(rfc3339(0), "1970-01-01T00:00:00Z");
+    assert_eq!(rfc3339(951_782_400), "2000-02-29T00:00:00Z");
+    assert_eq!(rfc3339(1_795_423_200), "2026-11-23T08:40:00Z");
+}

@@ -1,0 +1,442 @@
+//! The daemon's life: clean the scans folder, bind the control socket,
+//! run the capture thread (one capture at a time, from the queue) and the
+//! estimation worker, tell systemd, and stop gracefully.
+//!
+//! Boundaries: owns threads, the socket file and the scans folder's
+//! housekeeping; the photos are the sequencer's, the protocol the socket
+//! module's.
+
+use super::config::Config;
+use super::notify::Notifier;
+use super::plan::plan;
+use super::sequencer::{CaptureError, Progress, Rig, RunSettings};
+use super::state::{JobStage, Shared};
+use super::worker::{Job, Worker};
+use serde_json::json;
+use std::os::unix::fs::PermissionsExt;
+use std::os::unix::net::{UnixListener, UnixStream};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+#[derive(Debug, thiserror::Error)]
+pub enum ServerError {
+    #[error("{path}: {action}: {source}")]
+    Io {
+        path: PathBuf,
+        action: &'static str,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{path}: another daemon is already listening on this socket")]
+    SocketInUse { path: PathBuf },
+}
+
+fn io_err(path: &Path, action: &'static str) -> impl FnOnce(std::io::Error) -> ServerError {
+    let path = path.to_path_buf();
+    move |source| ServerError::Io {
+        path,
+        action,
+        source,
+    }
+}
+
+/// A bound daemon, ready to [`Server::run`].
+pub struct Server {
+    config: Arc<Config>,
+    shared: Arc<Shared>,
+    listener: UnixListener,
+    notifier: Notifier,
+}
+
+impl Server {
+    /// Prepares the scans folder (removing what an interrupted capture
+    /// left) and binds the control socket (mode 0660).
+    pub fn bind(config: Config, notifier: Notifier) -> Result<Server, ServerError> {
+        std::fs::create_dir_all(&config.scans)
+            .map_err(io_err(&config.scans, "creating the scans folder"))?;
+        clean_scans(&config.scans)?;
+        let listener = bind_socket(&config.socket)?;
+        let shared = Arc::new(Shared::default());
+        shared.lock().rig = config.rig.describe();
+        tracing::info!(
+            "listening on {}, scans in {}, rig: {}",
+            config.socket.display(),
+            config.scans.display(),
+            config.rig.describe()
+        );
+        Ok(Server {
+            config: Arc::new(config),
+            shared,
+            listener,
+            notifier,
+        })
+    }
+
+    pub fn socket(&self) -> &Path {
+        &self.config.socket
+    }
+
+    /// Serves until `stop` is set (or SIGTERM/SIGINT arrive when
+    /// [`install_signal_handlers`] was called), then stops gracefully: the
+    /// running capture is cancelled (its temporary folder removed), queued
+    /// ones are dropped, the worker finishes its scan, the socket file is
+    /// removed.
+    pub fn run(self, stop: &AtomicBool) -> Result<(), ServerError> {
+        let Server {
+            config,
+            shared,
+            listener,
+            notifier,
+        } = self;
+        listener
+            .set_nonblocking(true)
+            .map_err(io_err(&config.socket, "setting the socket non-blocking"))?;
+        let worker_shared = shared.clone();
+        let worker = Worker::spawn(move |job, verdict| {
+            worker_shared.update(|s| {
+                s.event(
+                    job.id,
+                    json!({"event": "checked", "job": job.id, "check": verdict}),
+                );
+                if let Some(j) = s.jobs.get_mut(&job.id) {
+                    j.check = Some(verdict);
+                }
+            })
+        })
+        .map_err(io_err(&config.socket, "starting the estimation worker"))?;
+        let capture = {
+            let (config, shared) = (config.clone(), shared.clone());
+            let socket = config.socket.clone();
+            std::thread::Builder::new()
+                .name("matscan-capture".into())
+                .spawn(move || capture_loop(&config, &shared, worker))
+                .map_err(io_err(&socket, "starting the capture thread"))?
+        };
+        shared.beat();
+        notifier.ready(&shared.lock().status_line());
+        let mut last_ping = Instant::now();
+        let mut last_status = String::new();
+        while !stop.load(Ordering::SeqCst) && !SIGNALLED.load(Ordering::SeqCst) {
+            match listener.accept() {
+                Ok((stream, _)) => spawn_connection(stream, &shared, &config),
+                Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {
+                    std::thread::sleep(Duration::from_millis(20))
+                }
+                Err(e) => {
+                    tracing::warn!("accepting a control connection: {e}");
+                    std::thread::sleep(Duration::from_millis(20))
+                }
+            }
+            if let Some(every) = notifier.watchdog_interval() {
+                // Only while the capture thread shows signs of life: a
+                // driver call that hangs stops the pings, and systemd
+                // restarts the daemon (whose start cleans the scans folder).
+                if last_ping.elapsed() >= every && shared.since_beat() < 2 * every {
+                    notifier.watchdog();
+                    last_ping = Instant::now();
+                }
+            }
+            let status = shared.lock().status_line();
+            if status != last_status {
+                notifier.status(&status);
+                last_status = status;
+            }
+        }
+        tracing::info!("stopping: cancelling the running capture, dropping the queue");
+        notifier.stopping("stopping");
+        shared.cancel.store(true, Ordering::SeqCst);
+        shared.update(|s| s.stopping = true);
+        if capture.join().is_err() {
+            tracing::error!("the capture thread panicked");
+        }
+        if let Err(e) = std::fs::remove_file(&config.socket) {
+            tracing::warn!("removing {}: {e}", config.socket.display());
+        }
+        tracing::info!("stopped");
+        Ok(())
+    }
+}
+
+fn spawn_connection(stream: UnixStream, shared: &Arc<Shared>, config: &Arc<Config>) {
+    if let Err(e) = stream.set_nonblocking(false) {
+        tracing::warn!("control connection: {e}");
+        return;
+    }
+    let (shared, config) = (shared.clone(), config.clone());
+    let spawned = std::thread::Builder::new()
+        .name("matscan-conn".into())
+        .spawn(move || super::socket::serve_connection(stream, &shared, &config));
+    if let Err(e) = spawned {
+        tracing::warn!("cannot start a thread for a control connection: {e}");
+    }
+}
+
+/// Runs queued captures one at a time until the daemon stops, handing each
+/// published scan to `worker`.
+fn capture_loop(config: &Config, shared: &Shared, worker: Worker) {
+    let mut rig: Option<Rig> = None;
+    loop {
+        let id = {
+            let mut s = shared.lock();
+            loop {
+                if s.stopping {
+                    break None;
+                }
+                if let Some(id) = s.queue.pop_front() {
+                    s.current = Some(id);
+                    break Some(id);
+                }
+                shared.beat();
+                s = shared.wait(s, Duration::from_millis(500));
+            }
+        };
+        let Some(id) = id else { break };
+        shared.changed.notify_all();
+        let result = run_job(config, shared, &mut rig, id);
+        shared.update(|s| {
+            s.current = None;
+            match result {
+                Ok((scan, summary)) => {
+                    tracing::info!("job {id}: scan published at {}", scan.display());
+                    s.event(
+                        id,
+                        json!({"event": "done", "job": id, "scan": scan, "summary": summary}),
+                    );
+                    s.set_stage(
+                        id,
+                        JobStage::Captured {
+                            scan: scan.clone(),
+                            summary,
+                        },
+                    );
+                    if !worker.submit(Job { id, scan }) {
+                        tracing::error!("job {id}: the estimation worker is gone");
+                    }
+                }
+                Err(error) => {
+                    tracing::error!("job {id}: capture failed: {error}");
+                    s.event(id, json!({"event": "failed", "job": id, "error": error}));
+                    s.set_stage(
+                        id,
+                        JobStage::Failed {
+                            error: error.clone(),
+                        },
+                    );
+                    s.last_error = Some(format!("job {id}: {error}"));
+                }
+            }
+        });
+    }
+    // Dropped jobs fail visibly rather than vanish.
+    shared.update(|s| {
+        while let Some(id) = s.queue.pop_front() {
+            let error = "the daemon stopped before the capture ran".to_string();
+            s.event(id, json!({"event": "failed", "job": id, "error": error}));
+            s.set_stage(id, JobStage::Failed { error });
+        }
+    });
+    // Let the worker finish the scan it has: it is published already.
+    worker.finish();
+}
+
+/// Opens the rig if needed and carries out job `id`; returns the scan and
+/// its summary, or the error as the operator should read it.
+fn run_job(
+    config: &Config,
+    shared: &Shared,
+    rig: &mut Option<Rig>,
+    id: u64,
+) -> Result<(PathBuf, serde_json::Value), String> {
+    let profile_name = shared
+        .lock()
+        .jobs
+        .get(&id)
+        .map(|j| j.profile.clone())
+        .unwrap_or_else(|| config.default_profile.clone());
+    let profile = config
+        .profiles
+        .get(&profile_name)
+        .cloned()
+        .unwrap_or_default();
+    if rig.is_none() {
+        tracing::info!("opening the rig: {}", config.rig.describe());
+        *rig = Some(super::rig::open(&config.rig).map_err(|e| format!("opening the rig: {e}"))?);
+    }
+    let Some(r) = rig.as_mut() else {
+        return Err("the rig is not open".into());
+    };
+    let plan = plan(&profile, r.geometry.checker_periods);
+    let target = next_scan_path(&config.scans).map_err(|e| e.to_string())?;
+    let given: Vec<&str> = profile.given.iter().map(|p| p.name()).collect();
+    let info = format!(
+        "# How this scan was captured (matscan daemon).\nprofile = {}\ngiven = {}\nleft_out = {}\n",
+        toml_string(&profile_name),
+        toml_list(&given),
+        toml_list(&plan.left_out.iter().map(String::as_str).collect::<Vec<_>>()),
+    );
+    shared.update(|s| s.event(id, json!({"event": "started", "job": id, "scan": target})));
+    tracing::info!(
+        "job {id}: capturing into {} (profile {profile_name})",
+        target.display()
+    );
+    let settings = RunSettings {
+        light_retries: config.capture.light_retries,
+        min_light_difference: config.capture.min_light_difference,
+        operator_timeout: config.capture.operator_timeout,
+    };
+    let mut progress = |p: Progress| {
+        shared.update(|s| {
+            s.event(
+                id,
+                json!({"event": "progress", "job": id, "done": p.done, "total": p.total, "what": p.what}),
+            )
+        })
+    };
+    match r.capture(
+        &plan,
+        &info,
+        &target,
+        &settings,
+        &|| {
+            shared.beat();
+            shared.cancel.load(Ordering::SeqCst)
+        },
+        &mut progress,
+    ) {
+        Ok(o) => Ok((
+            o.scan.clone(),
+            json!({
+                "profile": profile_name,
+                "positions": o.positions,
+                "photos": o.photos,
+                "retries": o.retries,
+                "left_out": o.left_out,
+                "seconds": o.seconds,
+            }),
+        )),
+        Err(e) => {
+            // A device that failed may be in any state: reopen it for the
+            // next capture rather than trust it.
+            if matches!(
+                e,
+                CaptureError::Driver(_) | CaptureError::LightDidNotFire { .. }
+            ) {
+                *rig = None;
+            }
+            Err(e.to_string())
+        }
+    }
+}
+
+fn toml_string(s: &str) -> String {
+    serde_json::Value::String(s.to_string()).to_string()
+}
+
+fn toml_list(items: &[&str]) -> String {
+    let quoted: Vec<String> = items.iter().map(|s| toml_string(s)).collect();
+    format!("[{}]", quoted.join(", "))
+}
+
+/// Whether `name` is a temporary folder an interrupted publication left
+/// (`.<name>.tmp-<pid>-<n>`, see `matscan_scan::atomic`).
+pub fn is_leftover_temp(name: &str) -> bool {
+    name.starts_with('.') && name.contains(".tmp-")
+}
+
+/// Removes the hidden temporary folders and files that interrupted
+/// captures left in `scans`; published scans are never touched.
+pub fn clean_scans(scans: &Path) -> Result<Vec<PathBuf>, ServerError> {
+    let mut removed = Vec::new();
+    let entries = std::fs::read_dir(scans).map_err(io_err(scans, "listing the scans folder"))?;
+    for entry in entries {
+        let entry = entry.map_err(io_err(scans, "listing the scans folder"))?;
+        let name = entry.file_name();
+        if !is_leftover_temp(&name.to_string_lossy()) {
+            continue;
+        }
+        let path = entry.path();
+        let is_dir = entry.file_type().is_ok_and(|t| t.is_dir());
+        let result = if is_dir {
+            std::fs::remove_dir_all(&path)
+        } else {
+            std::fs::remove_file(&path)
+        };
+        result.map_err(io_err(
+            &path,
+            "removing an interrupted capture's temporary folder",
+        ))?;
+        tracing::warn!(
+            "removed {} (left by an interrupted capture)",
+            path.display()
+        );
+        removed.push(path);
+    }
+    Ok(removed)
+}
+
+/// `scans/scan-NNNN`, one past the highest number there.
+pub fn next_scan_path(scans: &Path) -> Result<PathBuf, ServerError> {
+    let mut highest = 0u64;
+    let entries = std::fs::read_dir(scans).map_err(io_err(scans, "listing the scans folder"))?;
+    for entry in entries.flatten() {
+        let name = entry.file_name();
+        let n = name
+            .to_str()
+            .and_then(|n| n.strip_prefix("scan-"))
+            .and_then(|n| n.parse::<u64>().ok());
+        if let Some(n) = n {
+            highest = highest.max(n);
+        }
+    }
+    Ok(scans.join(format!("scan-{:04}", highest + 1)))
+}
+
+/// Binds `path` with mode 0660, replacing a stale socket file but never a
+/// live daemon's.
+fn bind_socket(path: &Path) -> Result<UnixListener, ServerError> {
+    if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(parent).map_err(io_err(parent, "creating the socket's folder"))?;
+    }
+    if std::fs::symlink_metadata(path).is_ok() {
+        if UnixStream::connect(path).is_ok() {
+            return Err(ServerError::SocketInUse {
+                path: path.to_path_buf(),
+            });
+        }
+        std::fs::remove_file(path).map_err(io_err(path, "removing a stale socket"))?;
+    }
+    let listener = UnixListener::bind(path).map_err(io_err(path, "binding the control socket"))?;
+    std::fs::set_permissions(path, std::fs::Permissions::from_mode(0o660))
+        .map_err(io_err(path, "setting the socket's mode to 0660"))?;
+    Ok(listener)
+}
+
+/// Set by SIGTERM and SIGINT once [`install_signal_handlers`] ran.
+static SIGNALLED: AtomicBool = AtomicBool::new(false);
+
+extern "C" fn on_signal(_: libc::c_int) {
+    // Only an atomic store: async-signal-safe.
+    SIGNALLED.store(true, Ordering::SeqCst);
+}
+
+/// Makes SIGTERM (systemd's stop) and SIGINT stop [`Server::run`]
+/// gracefully.
+pub fn install_signal_handlers() -> Result<(), ServerError> {
+    for signal in [libc::SIGTERM, libc::SIGINT] {
+        // SAFETY: `on_signal` only stores to an atomic, which is
+        // async-signal-safe; the handler is a valid `extern "C"` function
+        // for the whole program's life.
+        let previous =
+            unsafe { libc::signal(signal, on_signal as *const () as libc::sighandler_t) };
+        if previous == libc::SIG_ERR {
+            return Err(ServerError::Io {
+                path: PathBuf::from("/"),
+                action: "installing the SIGTERM/SIGINT handler",
+                source: std::io::Error::last_os_error(),
+            });
+        }
+    }
+    Ok(())
+}

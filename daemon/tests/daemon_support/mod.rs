@@ -1,0 +1,107 @@
+//! Helpers of the daemon tests: a daemon on a temporary socket with the
+//! simulated rig, in a thread of the test process.
+
+#![allow(dead_code)]
+
+use matscan::service::config::Config;
+use matscan::service::notify::Notifier;
+use matscan::service::server::Server;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::thread::JoinHandle;
+
+/// A config for the simulated rig: tiny photos, one sample, one position.
+/// `top` adds top-level keys and sections; `simulated` adds or overrides
+/// `[simulated]` keys (then may open `[simulated.faults]`).
+pub fn config_text(socket: &Path, scans: &Path, top: &str, simulated: &str) -> String {
+    let overridden: Vec<&str> = simulated
+        .lines()
+        .take_while(|l| !l.trim_start().starts_with('['))
+        .filter_map(|l| l.split('=').next())
+        .map(str::trim)
+        .collect();
+    let defaults: String = [
+        "seed = 2",
+        "geometry = \"sphere\"",
+        "size = 24",
+        "positions = 1",
+        "samples = 1",
+    ]
+    .iter()
+    .filter(|l| !overridden.contains(&l.split('=').next().unwrap_or("").trim()))
+    .map(|l| format!("{l}\n"))
+    .collect();
+    format!(
+        "rig = \"simulated\"\nsocket = {socket:?}\nscans = {scans:?}\n{top}\n\
+         [simulated]\n{defaults}{simulated}\n"
+    )
+}
+
+pub struct TestDaemon {
+    pub socket: PathBuf,
+    pub scans: PathBuf,
+    stop: Arc<AtomicBool>,
+    thread: Option<JoinHandle<()>>,
+}
+
+impl TestDaemon {
+    pub fn start(dir: &Path, top: &str, simulated: &str) -> TestDaemon {
+        let socket = dir.join("matscan.sock");
+        let scans = dir.join("scans");
+        TestDaemon::start_with(&config_text(&socket, &scans, top, simulated))
+    }
+
+    pub fn start_with(text: &str) -> TestDaemon {
+        let config = Config::parse(text, Path::new("test.toml")).unwrap();
+        let (socket, scans) = (config.socket.clone(), config.scans.clone());
+        let server = Server::bind(config, Notifier::new(None, None)).unwrap();
+        let stop = Arc::new(AtomicBool::new(false));
+        let flag = stop.clone();
+        let thread = std::thread::spawn(move || server.run(&flag).unwrap());
+        TestDaemon {
+            socket,
+            scans,
+            stop,
+            thread: Some(thread),
+        }
+    }
+
+    /// Published scans (folders not hidden), sorted.
+    pub fn scans(&self) -> Vec<PathBuf> {
+        list(&self.scans, |n| !n.starts_with('.'))
+    }
+
+    /// Hidden entries of the scans folder (temporaries).
+    pub fn hidden(&self) -> Vec<PathBuf> {
+        list(&self.scans, |n| n.starts_with('.'))
+    }
+
+    pub fn stop(mut self) {
+        self.halt();
+    }
+
+    fn halt(&mut self) {
+        self.stop.store(true, Ordering::SeqCst);
+        if let Some(t) = self.thread.take() {
+            t.join().unwrap();
+        }
+    }
+}
+
+impl Drop for TestDaemon {
+    fn drop(&mut self) {
+        self.halt();
+    }
+}
+
+pub fn list(dir: &Path, keep: impl Fn(&str) -> bool) -> Vec<PathBuf> {
+    let mut v: Vec<PathBuf> = std::fs::read_dir(dir)
+        .unwrap()
+        .flatten()
+        .filter(|e| keep(&e.file_name().to_string_lossy()))
+        .map(|e| e.path())
+        .collect();
+    v.sort();
+    v
+}

@@ -1,0 +1,500 @@
+//! One estimate of a scan: calibrate, select views, plan, run the networks
+//! stage by stage (figure 3.14; the networks of one stage concurrently, on
+//! scoped threads), compare with the truth where the scan has it, and write
+//! `estimate/`.
+//!
+//! What each network reads: the earlier parameters in [0, 1] — metallic;
+//! the effective transmission `T (1 - M)` (eq. 3.5); the effective
+//! subsurface `S (1 - M) (1 - T)` (eq. 3.6); roughness — and the roughness
+//! network's per-view illumination. Network outputs are read back with
+//! `inputs::uncentre` (basecolor as YCbCr, then converted to RGB), and are
+//! 0 outside the reference's object mask.
+//!
+//! Which views each network fuses: transmission only views whose position
+//! has a backlit capture, subsurface only views whose position has a
+//! checker capture, the others every view.
+//!
+//! Out of scope: the networks (see `network`), channel assembly (see
+//! `inputs`), the plan (see `plan`), file layout (see `output`).
+
+use crate::inputs::{rgb_of_ycbcr, uncentre, Dependencies, InputsError, SceneInputs};
+use crate::metrics::error_metrics;
+use crate::models::{ModelSource, Models, ModelsError};
+use crate::network::InputError;
+use crate::output::{
+    write_estimate, OutputError, ParamMap, ParamResult, ResultFile, Status, Timings,
+    RESULT_FORMAT,
+};
+use crate::plan::{default_value, Availability, Decision, Given, Plan, PlanError};
+use crate::spec::ParamKind;
+use crate::views::{select_views, ViewError, ViewFilter};
+use burn::tensor::Device;
+use matscan_calib::{calibrate_bundle, CalibError, CalibOptions};
+use matscan_scan::image_io::{read_rgb_exr, read_scalar_exr};
+use matscan_scan::raster::{RgbRaster, ScalarRaster};
+use matscan_scan::{Bundle, Param, ScanError, TruthMap};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// What to estimate and how.
+#[derive(Clone, Debug, Default)]
+pub struct EstimateOptions {
+    /// Output folder; `<scan>/estimate` when `None`.
+    pub out: Option<PathBuf>,
+    /// User-given parameters.
+    pub given: Vec<(ParamKind, Given)>,
+    /// Only these parameters (and what they need); all when `None`.
+    pub only: Option<Vec<ParamKind>>,
+    /// `--positions` and `--views`.
+    pub filter: ViewFilter,
+    /// Calibration settings.
+    pub calib: CalibOptions,
+}
+
+/// An estimate that could not be made.
+#[derive(Debug, thiserror::Error)]
+pub enum EstimateError {
+    /// Reading the scan failed.
+    #[error(transparent)]
+    Scan(#[from] ScanError),
+    /// Calibration failed.
+    #[error("calibration: {0}")]
+    Calib(#[from] CalibError),
+    /// No usable views.
+    #[error(transparent)]
+    Views(#[from] ViewError),
+    /// An invalid request.
+    #[error(transparent)]
+    Plan(#[from] PlanError),
+    /// A network is unavailable.
+    #[error(transparent)]
+    Models(#[from] ModelsError),
+    /// Assembling inputs failed.
+    #[error(transparent)]
+    Inputs(#[from] InputsError),
+    /// A network refused its inputs.
+    #[error("the {kind} network: {source}")]
+    Network {
+        /// The network.
+        kind: ParamKind,
+        /// Why.
+        #[source]
+        source: InputError,
+    },
+    /// A network's output could not be read back.
+    #[error("the {kind} network's output could not be read: {message}")]
+    Readback {
+        /// The network.
+        kind: ParamKind,
+        /// The backend's message.
+        message: String,
+    },
+    /// A given map does not fit the reference image.
+    #[error("--given {param}={path}: {reason}")]
+    GivenMap {
+        /// The parameter.
+        param: ParamKind,
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        reason: String,
+    },
+    /// Writing the result failed.
+    #[error(transparent)]
+    Output(#[from] OutputError),
+}
+
+/// What a finished estimate wrote.
+#[derive(Clone, Debug)]
+pub struct EstimateReport {
+    /// The folder written.
+    pub out: PathBuf,
+    /// The contents of its `result.toml`.
+    pub result: ResultFile,
+}
+
+/// One network's result.
+struct NetRun {
+    kind: ParamKind,
+    /// Channel-major `[channels][pixels]`, network units.
+    fused: Vec<f32>,
+    /// Per view, the first per-view channel (illumination), network units.
+    per_view: Vec<Vec<f32>>,
+    views: usize,
+    seconds: f64,
+}
+
+/// Parameter values in [0, 1] per reference pixel.
+#[derive(Default)]
+struct Values {
+    scalar: BTreeMap<ParamKind, Vec<f32>>,
+    basecolor: Option<Vec<[f32; 3]>>,
+    illumination: Option<Vec<Vec<f32>>>,
+}
+
+/// Estimates the scan at `scan` and writes the result.
+pub fn estimate(
+    scan: &Path,
+    models: ModelSource,
+    options: &EstimateOptions,
+    device: &Device,
+) -> Result<EstimateReport, EstimateError> {
+    let start = Instant::now();
+    let mut timings = Timings::default();
+
+    let t = Instant::now();
+    let bundle = Bundle::open(scan)?;
+    timings.load_s = t.elapsed().as_secs_f64();
+
+    let t = Instant::now();
+    let calibration = calibrate_bundle(&bundle, &options.calib)?;
+    let set = select_views(&bundle.manifest, &calibration, &options.filter)?;
+    timings.calibration_s = t.elapsed().as_secs_f64();
+
+    let t = Instant::now();
+    let inputs = SceneInputs::assemble(&bundle, &calibration, &set)?;
+    timings.inputs_s = t.elapsed().as_secs_f64();
+
+    let available = Availability {
+        backlit: inputs.views.iter().any(|v| v.has_backlit()),
+        checker: inputs.views.iter().any(|v| v.has_checker()),
+    };
+    let plan = Plan::new(options.only.as_deref(), &options.given, available)?;
+
+    let t = Instant::now();
+    let mut values = Values::default();
+    for kind in ParamKind::ALL {
+        match plan.decision(kind) {
+            Decision::Given(given) => set_given(&mut values, kind, given, &inputs)?,
+            Decision::Skip { .. } => set_constant(&mut values, kind, default_value(kind), &inputs),
+            Decision::Estimate => {}
+        }
+    }
+    timings.load_s += t.elapsed().as_secs_f64();
+
+    let t = Instant::now();
+    let kinds: Vec<ParamKind> = plan.networks().collect();
+    let models = models.resolve(&kinds, device)?;
+    timings.weights_s = t.elapsed().as_secs_f64();
+
+    let mut runs: BTreeMap<ParamKind, (usize, f64)> = BTreeMap::new();
+    for stage in plan.stages() {
+        let results = run_stage(stage, &models, &inputs, &values, device)?;
+        for run in results {
+            runs.insert(run.kind, (run.views, run.seconds));
+            store(&mut values, &plan, run, &inputs);
+        }
+    }
+
+    let maps = written_maps(&plan, &values, &inputs);
+    let t = Instant::now();
+    let metrics = metrics(&bundle, &set.reference, &maps, &inputs)?;
+    timings.metrics_s = t.elapsed().as_secs_f64();
+    timings.networks = runs
+        .iter()
+        .map(|(k, (_, s))| (k.name().to_string(), *s))
+        .collect();
+    timings.total_s = start.elapsed().as_secs_f64();
+
+    let mut params = BTreeMap::new();
+    for kind in ParamKind::ALL {
+        let model = models.get(kind).map(|m| m.id.clone());
+        let entry = match plan.decision(kind) {
+            Decision::Estimate => ParamResult {
+                status: Status::Estimated,
+                reason: None,
+                source: None,
+                default: None,
+                model,
+                views: runs.get(&kind).map(|(v, _)| *v),
+            },
+            Decision::Given(given) => ParamResult {
+                status: Status::Given,
+                reason: None,
+                source: Some(given.to_string()),
+                default: None,
+                model: None,
+                views: None,
+            },
+            Decision::Skip { reason } => ParamResult {
+                status: Status::Skipped,
+                reason: Some(reason.clone()),
+                source: None,
+                default: Some(default_value(kind)),
+                model: None,
+                views: None,
+            },
+        };
+        params.insert(kind.name().to_string(), entry);
+    }
+    let result = ResultFile {
+        format: RESULT_FORMAT.to_string(),
+        scan: scan.display().to_string(),
+        reference_position: set.reference.clone(),
+        views: set.views.iter().map(|v| v.to_string()).collect(),
+        left_out: set.left_out.clone(),
+        warnings: inputs.warnings.clone(),
+        params,
+        models: kinds
+            .iter()
+            .filter_map(|k| models.get(*k).map(|m| (k.name().to_string(), m.id.clone())))
+            .collect(),
+        timings,
+        metrics,
+    };
+    let out = options
+        .out
+        .clone()
+        .unwrap_or_else(|| scan.join("estimate"));
+    write_estimate(&out, &set.reference, &maps, &result)?;
+    Ok(EstimateReport { out, result })
+}
+
+/// The views `kind`'s network fuses.
+fn views_for(kind: ParamKind, inputs: &SceneInputs) -> Vec<usize> {
+    (0..inputs.views.len())
+        .filter(|&i| {
+            let v = &inputs.views[i];
+            match kind {
+                ParamKind::Transmission => v.has_backlit(),
+                ParamKind::Subsurface => v.has_checker(),
+                _ => true,
+            }
+        })
+        .collect()
+}
+
+/// Runs the networks of one stage concurrently.
+fn run_stage(
+    stage: &[ParamKind],
+    models: &Models,
+    inputs: &SceneInputs,
+    values: &Values,
+    device: &Device,
+) -> Result<Vec<NetRun>, EstimateError> {
+    let metallic = values.scalar.get(&ParamKind::Metallic);
+    let transmission = values.scalar.get(&ParamKind::Transmission);
+    let subsurface = values.scalar.get(&ParamKind::Subsurface);
+    let transmission_final: Option<Vec<f32>> = match (transmission, metallic) {
+        (Some(t), Some(m)) => Some(t.iter().zip(m).map(|(t, m)| t * (1.0 - m)).collect()),
+        _ => None,
+    };
+    let subsurface_final: Option<Vec<f32>> = match (subsurface, &transmission_final, metallic) {
+        (Some(s), Some(_), Some(m)) => transmission.map(|t| {
+            s.iter()
+                .zip(m)
+                .zip(t)
+                .map(|((s, m), t)| s * (1.0 - m) * (1.0 - t))
+                .collect()
+        }),
+        _ => None,
+    };
+    let deps = Dependencies {
+        metallic: metallic.map(Vec::as_slice),
+        transmission_final: transmission_final.as_deref(),
+        subsurface_final: subsurface_final.as_deref(),
+        roughness: values.scalar.get(&ParamKind::Roughness).map(Vec::as_slice),
+        illumination: values.illumination.as_deref(),
+    };
+    let run_one = |kind: ParamKind| -> Result<NetRun, EstimateError> {
+        let t = Instant::now();
+        let model = models.get(kind).ok_or(ModelsError::NotProvided(kind))?;
+        let which = views_for(kind, inputs);
+        let tensors = inputs.tensors(kind, &which, &deps, device)?;
+        let out = model
+            .net
+            .forward(&tensors)
+            .map_err(|source| EstimateError::Network { kind, source })?;
+        let read = |t: burn::tensor::Tensor<4>| {
+            t.into_data()
+                .try_to_vec::<f32>()
+                .map_err(|e| EstimateError::Readback {
+                    kind,
+                    message: format!("{e:?}"),
+                })
+        };
+        let fused = read(out.fused)?;
+        let n = inputs.pixels();
+        let mut per_view = Vec::with_capacity(out.per_view.len());
+        for t in out.per_view {
+            let mut v = read(t)?;
+            v.truncate(n);
+            per_view.push(v);
+        }
+        Ok(NetRun {
+            kind,
+            fused,
+            per_view,
+            views: which.len(),
+            seconds: t.elapsed().as_secs_f64(),
+        })
+    };
+    let results: Vec<Result<NetRun, EstimateError>> = std::thread::scope(|scope| {
+        let handles: Vec<_> = stage
+            .iter()
+            .map(|&kind| scope.spawn(move || run_one(kind)))
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| match h.join() {
+                Ok(result) => result,
+                Err(panic) => std::panic::resume_unwind(panic),
+            })
+            .collect()
+    });
+    results.into_iter().collect()
+}
+
+/// Keeps a network's result as the parameter's value (unless given) and
+/// roughness's illumination.
+fn store(values: &mut Values, plan: &Plan, run: NetRun, inputs: &SceneInputs) {
+    let n = inputs.pixels();
+    let mask = &inputs.mask.data;
+    if run.kind == ParamKind::Roughness {
+        values.illumination = Some(run.per_view);
+    }
+    if plan.decision(run.kind) != &Decision::Estimate {
+        return;
+    }
+    if run.kind == ParamKind::Basecolor {
+        let rgb = (0..n)
+            .map(|i| {
+                if !mask[i] {
+                    return [0.0; 3];
+                }
+                rgb_of_ycbcr([0, 1, 2].map(|c| uncentre(run.fused[c * n + i])))
+            })
+            .collect();
+        values.basecolor = Some(rgb);
+    } else {
+        let map = (0..n)
+            .map(|i| if mask[i] { uncentre(run.fused[i]) } else { 0.0 })
+            .collect();
+        values.scalar.insert(run.kind, map);
+    }
+}
+
+fn set_constant(values: &mut Values, kind: ParamKind, v: f32, inputs: &SceneInputs) {
+    let n = inputs.pixels();
+    if kind == ParamKind::Basecolor {
+        values.basecolor = Some(vec![[v; 3]; n]);
+    } else {
+        values.scalar.insert(kind, vec![v; n]);
+    }
+}
+
+fn set_given(
+    values: &mut Values,
+    kind: ParamKind,
+    given: &Given,
+    inputs: &SceneInputs,
+) -> Result<(), EstimateError> {
+    let path = match given {
+        Given::Constant(v) => {
+            set_constant(values, kind, *v, inputs);
+            return Ok(());
+        }
+        Given::Map(path) => path,
+    };
+    let fail = |reason: String| EstimateError::GivenMap {
+        param: kind,
+        path: path.clone(),
+        reason,
+    };
+    let (w, h) = (inputs.width as u32, inputs.height as u32);
+    let unit = |v: f32| v.clamp(0.0, 1.0);
+    if kind == ParamKind::Basecolor {
+        let map = read_rgb_exr(path).map_err(|e| fail(e.to_string()))?;
+        if (map.width, map.height) != (w, h) {
+            return Err(fail(size_reason(map.width, map.height, w, h)));
+        }
+        values.basecolor = Some(map.data.iter().map(|c| c.map(unit)).collect());
+    } else {
+        let map = read_scalar_exr(path).map_err(|e| fail(e.to_string()))?;
+        if (map.width, map.height) != (w, h) {
+            return Err(fail(size_reason(map.width, map.height, w, h)));
+        }
+        values
+            .scalar
+            .insert(kind, map.data.iter().map(|&v| unit(v)).collect());
+    }
+    Ok(())
+}
+
+fn size_reason(w: u32, h: u32, want_w: u32, want_h: u32) -> String {
+    format!("the map is {w}x{h}, the reference camera image is {want_w}x{want_h}")
+}
+
+/// The maps to write: every estimated or given parameter.
+fn written_maps(
+    plan: &Plan,
+    values: &Values,
+    inputs: &SceneInputs,
+) -> BTreeMap<ParamKind, ParamMap> {
+    let (w, h) = (inputs.width as u32, inputs.height as u32);
+    let mut maps = BTreeMap::new();
+    for kind in ParamKind::ALL {
+        if matches!(plan.decision(kind), Decision::Skip { .. }) {
+            continue;
+        }
+        let map = if kind == ParamKind::Basecolor {
+            values
+                .basecolor
+                .clone()
+                .and_then(|d| RgbRaster::from_vec(w, h, d))
+                .map(ParamMap::Rgb)
+        } else {
+            values
+                .scalar
+                .get(&kind)
+                .cloned()
+                .and_then(|d| ScalarRaster::from_vec(w, h, d))
+                .map(ParamMap::Scalar)
+        };
+        if let Some(map) = map {
+            maps.insert(kind, map);
+        }
+    }
+    maps
+}
+
+/// MAD, MSE and PSNR of each written map against the truth, over the truth
+/// mask (the reference object mask where the scan has no truth mask).
+fn metrics(
+    bundle: &Bundle,
+    reference: &str,
+    maps: &BTreeMap<ParamKind, ParamMap>,
+    inputs: &SceneInputs,
+) -> Result<BTreeMap<String, crate::metrics::ErrorMetrics>, EstimateError> {
+    let mask = match bundle.read_truth(reference, &TruthMap::Mask)? {
+        Some(m) => m.into_mask().map(|m| m.data),
+        None => None,
+    }
+    .unwrap_or_else(|| inputs.mask.data.clone());
+    let mut out = BTreeMap::new();
+    for (kind, map) in maps {
+        let Ok(param) = kind.name().parse::<Param>() else {
+            continue;
+        };
+        let Some(truth) = bundle.read_truth(reference, &TruthMap::Param(param))? else {
+            continue;
+        };
+        let found = match (map, truth) {
+            (ParamMap::Rgb(e), matscan_scan::TruthImage::Rgb(t)) => error_metrics(
+                e.data.as_flattened(),
+                t.data.as_flattened(),
+                &mask,
+                3,
+            ),
+            (ParamMap::Scalar(e), matscan_scan::TruthImage::Scalar(t)) => {
+                error_metrics(&e.data, &t.data, &mask, 1)
+            }
+            _ => None,
+        };
+        if let Some(m) = found {
+            out.insert(kind.name().to_string(), m);
+        }
+    }
+    Ok(out)
+}
