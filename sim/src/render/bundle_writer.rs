@@ -188,7 +188,7 @@ fn write_bundle(scene: &Scene, opts: &SimOptions, out_dir: &Path) -> Result<Bund
     let manifest = Manifest {
         units: "m".into(),
         name: scene.name.clone(),
-        created: rfc3339_now(),
+        created: matscan_scan::time::rfc3339_now(),
         camera: scene.rig.intrinsics,
         positions,
     };
@@ -345,43 +345,9 @@ fn toml_string(v: &str) -> String {
     out
 }
 
-/// The current UTC time as RFC 3339 (`2026-11-23T08:40:00Z`).
-fn rfc3339_now() -> String {
-    let secs = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map_or(0, |d| d.as_secs()) as i64;
-    let (days, rem) = (secs.div_euclid(86_400), secs.rem_euclid(86_400));
-    // Civil date from days since 1970-01-01 (Hinnant's algorithm).
-    let z = days + 719_468;
-    let era = z.div_euclid(146_097);
-    let doe = z - era * 146_097;
-    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
-    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
-    let mp = (5 * doy + 2) / 153;
-    let day = doy - (153 * mp + 2) / 5 + 1;
-    let month = if mp < 10 { mp + 3 } else { mp - 9 };
-    let year = yoe + era * 400 + i64::from(month <= 2);
-    format!(
-        "{year:04}-{month:02}-{day:02}T{:02}:{:02}:{:02}Z",
-        rem / 3600,
-        rem % 3600 / 60,
-        rem % 60
-    )
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn timestamps_are_rfc3339() {
-        let t = rfc3339_now();
-        assert_eq!(t.len(), 20);
-        assert_eq!(&t[4..5], "-");
-        assert_eq!(&t[10..11], "T");
-        assert!(t.ends_with('Z'));
-        assert!(t[..4].parse::<u32>().unwrap() >= 2024);
-    }
 
     #[test]
     fn toml_strings_are_escaped() {
