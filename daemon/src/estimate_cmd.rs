@@ -118,12 +118,7 @@ pub fn run(args: &EstimateArgs) -> Result<()> {
         let metrics = result
             .metrics
             .get(kind.name())
-            .map(|m| {
-                format!(
-                    "; MAD {:.4} MSE {:.5} PSNR {:.2} dB",
-                    m.mad, m.mse, m.psnr
-                )
-            })
+            .map(|m| format!("; MAD {:.4} MSE {:.5} PSNR {:.2} dB", m.mad, m.mse, m.psnr))
             .unwrap_or_default();
         println!("{kind}: {line}{metrics}");
     }

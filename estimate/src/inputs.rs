@@ -56,7 +56,13 @@ pub fn rgb_of_ycbcr([y, cb, cr]: [f32; 3]) -> [f32; 3] {
     let r = y + 1.402 * cr;
     let g = y - 0.344_136 * cb - 0.714_136 * cr;
     let b = y + 1.772 * cb;
-    [r, g, b].map(|v| if v.is_finite() { v.clamp(0.0, 1.0) } else { 0.0 })
+    [r, g, b].map(|v| {
+        if v.is_finite() {
+            v.clamp(0.0, 1.0)
+        } else {
+            0.0
+        }
+    })
 }
 
 /// Assembling the inputs failed.
@@ -219,11 +225,11 @@ fn missing(view: &str, what: &str) -> InputsError {
     }
 }
 
-fn dependency<'a, T: ?Sized>(
-    value: Option<&'a T>,
+fn dependency<T: ?Sized>(
+    value: Option<&T>,
     kind: ParamKind,
     channel: InputChannel,
-) -> Result<&'a T, InputsError> {
+) -> Result<&T, InputsError> {
     value.ok_or(InputsError::MissingDependency { kind, channel })
 }
 
@@ -290,7 +296,11 @@ fn fill(
         I::WhiteLitCb => constant(out, ycbcr(p.white_lit)[1]),
         I::WhiteLitCr => constant(out, ycbcr(p.white_lit)[2]),
         I::Depth => out.extend(p.depth.iter().map(|&d| centre(d))),
-        I::Metallic => out.extend(dependency(deps.metallic, kind, channel)?.iter().map(|&v| centre(v))),
+        I::Metallic => out.extend(
+            dependency(deps.metallic, kind, channel)?
+                .iter()
+                .map(|&v| centre(v)),
+        ),
         I::TransmissionFinal => out.extend(
             dependency(deps.transmission_final, kind, channel)?
                 .iter()
@@ -311,7 +321,11 @@ fn fill(
             let view = all
                 .get(index)
                 .ok_or(InputsError::MissingDependency { kind, channel })?;
-            let sign = if channel == I::Illumination { 1.0 } else { -1.0 };
+            let sign = if channel == I::Illumination {
+                1.0
+            } else {
+                -1.0
+            };
             out.extend(view.iter().map(|&v| sign * cosine(v)));
         }
     }
@@ -410,7 +424,12 @@ fn view_planes(
         })
         .collect();
     let ambient = rgb(
-        photo(bundle, &view.position, &ambient_capture.name, ambient_exposure)?,
+        photo(
+            bundle,
+            &view.position,
+            &ambient_capture.name,
+            ambient_exposure,
+        )?,
         &ambient_capture.name,
     )?;
     let lit = rgb(
@@ -520,7 +539,12 @@ mod tests {
 
     #[test]
     fn ycbcr_round_trips_through_rgb() {
-        for rgb in [[0.2, 0.5, 0.9], [1.0, 1.0, 1.0], [0.0, 0.0, 0.0], [0.7, 0.1, 0.3]] {
+        for rgb in [
+            [0.2, 0.5, 0.9],
+            [1.0, 1.0, 1.0],
+            [0.0, 0.0, 0.0],
+            [0.7, 0.1, 0.3],
+        ] {
             let back = rgb_of_ycbcr(ycbcr(rgb));
             for c in 0..3 {
                 assert!((back[c] - rgb[c]).abs() < 1e-5, "{rgb:?} -> {back:?}");

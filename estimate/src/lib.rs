@@ -42,11 +42,11 @@ pub mod views;
 pub mod weights;
 
 pub use backend::{cpu_device, CpuBackend};
-pub use network::{ConfigError, InputError, NetConfig, NetOutput, ParamNet};
-pub use spec::{InputChannel, OutputChannel, ParamKind};
 pub use models::{ModelSource, Models, ModelsError};
+pub use network::{ConfigError, InputError, NetConfig, NetOutput, ParamNet};
 pub use output::{ResultFile, Status};
 pub use pipeline::{estimate, EstimateError, EstimateOptions, EstimateReport};
 pub use plan::{Given, PlanError};
+pub use spec::{InputChannel, OutputChannel, ParamKind};
 pub use views::ViewFilter;
 pub use weights::{WeightSource, WeightsError};

@@ -76,8 +76,7 @@ mod tests {
     #[test]
     fn scalar_metrics_match_hand_computed_values() {
         // Masked differences: 0.1, -0.3 (the third pixel is outside the mask).
-        let m = error_metrics(&[0.5, 0.2, 9.0], &[0.4, 0.5, 0.0], &[true, true, false], 1)
-            .unwrap();
+        let m = error_metrics(&[0.5, 0.2, 9.0], &[0.4, 0.5, 0.0], &[true, true, false], 1).unwrap();
         assert!((m.mad - 0.2).abs() < 1e-7, "{m:?}");
         assert!((m.mse - 0.05).abs() < 1e-7, "{m:?}");
         assert!((m.psnr - 10.0 * 20f64.log10()).abs() < 1e-5, "{m:?}");

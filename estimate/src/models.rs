@@ -75,13 +75,7 @@ impl Models {
     /// Adds (or replaces) a network.
     pub fn insert(&mut self, net: ParamNet, id: impl Into<String>) {
         let kind = net.config().kind();
-        self.models.insert(
-            kind,
-            Model {
-                net,
-                id: id.into(),
-            },
-        );
+        self.models.insert(kind, Model { net, id: id.into() });
     }
 
     /// Fresh random networks of `width` (tracks of a quarter) for `kinds`,

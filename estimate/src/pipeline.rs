@@ -22,8 +22,7 @@ use crate::metrics::error_metrics;
 use crate::models::{ModelSource, Models, ModelsError};
 use crate::network::InputError;
 use crate::output::{
-    write_estimate, OutputError, ParamMap, ParamResult, ResultFile, Status, Timings,
-    RESULT_FORMAT,
+    write_estimate, OutputError, ParamMap, ParamResult, ResultFile, Status, Timings, RESULT_FORMAT,
 };
 use crate::plan::{default_value, Availability, Decision, Given, Plan, PlanError};
 use crate::spec::ParamKind;
@@ -243,10 +242,7 @@ pub fn estimate(
         timings,
         metrics,
     };
-    let out = options
-        .out
-        .clone()
-        .unwrap_or_else(|| scan.join("estimate"));
+    let out = options.out.clone().unwrap_or_else(|| scan.join("estimate"));
     write_estimate(&out, &set.reference, &maps, &result)?;
     Ok(EstimateReport { out, result })
 }
@@ -481,12 +477,9 @@ fn metrics(
             continue;
         };
         let found = match (map, truth) {
-            (ParamMap::Rgb(e), matscan_scan::TruthImage::Rgb(t)) => error_metrics(
-                e.data.as_flattened(),
-                t.data.as_flattened(),
-                &mask,
-                3,
-            ),
+            (ParamMap::Rgb(e), matscan_scan::TruthImage::Rgb(t)) => {
+                error_metrics(e.data.as_flattened(), t.data.as_flattened(), &mask, 3)
+            }
             (ParamMap::Scalar(e), matscan_scan::TruthImage::Scalar(t)) => {
                 error_metrics(&e.data, &t.data, &mask, 1)
             }

@@ -300,8 +300,13 @@ mod tests {
     fn only_roughness_runs_what_roughness_reads() {
         let plan = Plan::new(Some(&[P::Roughness]), &[], ALL_CAPTURES).unwrap();
         let run: Vec<P> = plan.networks().collect();
-        assert_eq!(run, vec![P::Metallic, P::Transmission, P::Subsurface, P::Roughness]);
-        assert!(matches!(plan.decision(P::Basecolor), Decision::Skip { reason } if reason.contains("not requested")));
+        assert_eq!(
+            run,
+            vec![P::Metallic, P::Transmission, P::Subsurface, P::Roughness]
+        );
+        assert!(
+            matches!(plan.decision(P::Basecolor), Decision::Skip { reason } if reason.contains("not requested"))
+        );
         let plan = Plan::new(Some(&[P::Metallic]), &[], ALL_CAPTURES).unwrap();
         assert_eq!(plan.networks().collect::<Vec<_>>(), vec![P::Metallic]);
     }
@@ -311,7 +316,10 @@ mod tests {
         let given = [(P::Transmission, Given::Constant(0.0))];
         let plan = Plan::new(Some(&[P::Subsurface]), &given, ALL_CAPTURES).unwrap();
         assert_eq!(plan.stages(), &[vec![P::Metallic], vec![P::Subsurface]]);
-        assert_eq!(plan.decision(P::Transmission), &Decision::Given(Given::Constant(0.0)));
+        assert_eq!(
+            plan.decision(P::Transmission),
+            &Decision::Given(Given::Constant(0.0))
+        );
     }
 
     #[test]
@@ -319,7 +327,10 @@ mod tests {
         let given = [(P::Roughness, Given::Constant(0.3))];
         let plan = Plan::new(Some(&[P::Basecolor]), &given, ALL_CAPTURES).unwrap();
         assert!(plan.networks().any(|k| k == P::Roughness));
-        assert_eq!(plan.decision(P::Roughness), &Decision::Given(Given::Constant(0.3)));
+        assert_eq!(
+            plan.decision(P::Roughness),
+            &Decision::Given(Given::Constant(0.3))
+        );
     }
 
     #[test]
@@ -329,8 +340,12 @@ mod tests {
             checker: false,
         };
         let plan = Plan::new(None, &[], none).unwrap();
-        assert!(matches!(plan.decision(P::Transmission), Decision::Skip { reason } if reason.contains("no backlit capture")));
-        assert!(matches!(plan.decision(P::Subsurface), Decision::Skip { reason } if reason.contains("no checker capture")));
+        assert!(
+            matches!(plan.decision(P::Transmission), Decision::Skip { reason } if reason.contains("no backlit capture"))
+        );
+        assert!(
+            matches!(plan.decision(P::Subsurface), Decision::Skip { reason } if reason.contains("no checker capture"))
+        );
         assert_eq!(
             plan.stages(),
             &[vec![P::Metallic], vec![P::Roughness], vec![P::Basecolor]]
@@ -339,15 +354,30 @@ mod tests {
 
     #[test]
     fn given_values_parse_as_constants_or_files() {
-        assert_eq!(parse_given("transmission=0").unwrap(), (P::Transmission, Given::Constant(0.0)));
+        assert_eq!(
+            parse_given("transmission=0").unwrap(),
+            (P::Transmission, Given::Constant(0.0))
+        );
         assert_eq!(
             parse_given("roughness=map.exr").unwrap(),
             (P::Roughness, Given::Map(PathBuf::from("map.exr")))
         );
-        assert!(matches!(parse_given("metallic=1.5"), Err(PlanError::OutOfRange { .. })));
-        assert!(matches!(parse_given("sheen=0"), Err(PlanError::UnknownParam(_))));
+        assert!(matches!(
+            parse_given("metallic=1.5"),
+            Err(PlanError::OutOfRange { .. })
+        ));
+        assert!(matches!(
+            parse_given("sheen=0"),
+            Err(PlanError::UnknownParam(_))
+        ));
         assert!(matches!(parse_given("metallic"), Err(PlanError::Syntax(_))));
-        let twice = [(P::Metallic, Given::Constant(0.0)), (P::Metallic, Given::Constant(1.0))];
-        assert_eq!(Plan::new(None, &twice, ALL_CAPTURES), Err(PlanError::Twice(P::Metallic)));
+        let twice = [
+            (P::Metallic, Given::Constant(0.0)),
+            (P::Metallic, Given::Constant(1.0)),
+        ];
+        assert_eq!(
+            Plan::new(None, &twice, ALL_CAPTURES),
+            Err(PlanError::Twice(P::Metallic))
+        );
     }
 }

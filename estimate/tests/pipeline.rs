@@ -117,7 +117,10 @@ fn a_full_run_writes_every_contract_file_and_a_parsable_result() {
             "{entry:?}"
         );
         let m = result.metrics[name];
-        assert!(m.mad.is_finite() && m.mse.is_finite() && m.psnr.is_finite(), "{m:?}");
+        assert!(
+            m.mad.is_finite() && m.mse.is_finite() && m.psnr.is_finite(),
+            "{m:?}"
+        );
         assert!(m.pixels > 0);
     }
     assert_eq!(ran(&result).len(), 5);
@@ -125,7 +128,13 @@ fn a_full_run_writes_every_contract_file_and_a_parsable_result() {
     // Two positions, each with two flashes and the uniformly lit projector.
     assert_eq!(result.views.len(), 6, "{:?}", result.views);
     let t = &result.timings;
-    for s in [t.load_s, t.calibration_s, t.inputs_s, t.weights_s, t.total_s] {
+    for s in [
+        t.load_s,
+        t.calibration_s,
+        t.inputs_s,
+        t.weights_s,
+        t.total_s,
+    ] {
         assert!(s >= 0.0 && s.is_finite());
     }
     assert!(t.networks.values().all(|s| *s > 0.0));
@@ -169,7 +178,11 @@ fn without_a_backlit_capture_transmission_is_skipped_with_the_reason() {
     let entry = result.param(ParamKind::Transmission).unwrap();
     assert_eq!(entry.status, Status::Skipped);
     assert!(
-        entry.reason.as_deref().unwrap().contains("no backlit capture"),
+        entry
+            .reason
+            .as_deref()
+            .unwrap()
+            .contains("no backlit capture"),
         "{entry:?}"
     );
     assert_eq!(entry.default, Some(0.0));
@@ -190,7 +203,11 @@ fn without_checker_captures_subsurface_is_skipped_with_the_reason() {
     let entry = result.param(ParamKind::Subsurface).unwrap();
     assert_eq!(entry.status, Status::Skipped);
     assert!(
-        entry.reason.as_deref().unwrap().contains("no checker capture"),
+        entry
+            .reason
+            .as_deref()
+            .unwrap()
+            .contains("no checker capture"),
         "{entry:?}"
     );
     assert_eq!(
@@ -214,7 +231,11 @@ fn only_roughness_runs_just_what_roughness_needs() {
     );
     let basecolor = result.param(ParamKind::Basecolor).unwrap();
     assert_eq!(basecolor.status, Status::Skipped);
-    assert!(basecolor.reason.as_deref().unwrap().contains("not requested"));
+    assert!(basecolor
+        .reason
+        .as_deref()
+        .unwrap()
+        .contains("not requested"));
     assert!(!scan.join("estimate/p0/basecolor.exr").exists());
     assert!(scan.join("estimate/p0/roughness.exr").is_file());
 }
