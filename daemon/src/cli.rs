@@ -6,7 +6,6 @@ use matscan_sim::render::SimOptions;
 use matscan_sim::scene::geometry::{UserMesh, UvProjection};
 use matscan_sim::scene::{GeometryKind, GeometrySource, SceneKind, SceneOptions};
 use std::path::{Path, PathBuf};
-use std::time::Instant;
 
 #[derive(Debug, Parser)]
 #[command(
@@ -22,9 +21,29 @@ pub struct Cli {
 
 #[derive(Debug, Subcommand)]
 pub enum Command {
-    /// Run the main job on the simulated rig: simulate a capture, then draw
-    /// its contact sheet; prints timings.
+    /// Run the main job on the simulated rig: start the daemon in this
+    /// process, capture one scan, estimate its BSDF maps with the embedded
+    /// networks, print per-parameter error and timings, draw a contact
+    /// sheet.
     Demo(DemoArgs),
+    /// Estimate a scan's BSDF parameter maps into SCAN/estimate (float EXR
+    /// maps, 8-bit previews, result.toml with statuses, timings and, where
+    /// the scan has truth, error metrics).
+    Estimate(crate::estimate_cmd::EstimateArgs),
+    /// Error against run time over a folder of simulated scans: MAD, MSE
+    /// and PSNR per parameter for 1, 3 and all views, beside a trivial
+    /// baseline and the thesis's figures.
+    Eval(crate::eval_cmd::EvalArgs),
+    /// Run the capture service (systemd Type=notify; see
+    /// docs/daemon-protocol.md).
+    Daemon(matscan::service::DaemonArgs),
+    /// Ask the daemon for a capture. Exit codes: 0 done, 1 usage or
+    /// protocol error, 3 daemon unreachable, 4 refused, 5 capture failed,
+    /// 6 captured but the estimate failed.
+    CaptureNow(matscan::client::CaptureNowArgs),
+    /// Show the daemon's rig, queue and last scans (exit codes as
+    /// capture-now).
+    Status(matscan::client::StatusArgs),
     /// Render a simulated scan bundle (or a dataset of them) with the
     /// built-in path tracer.
     Simulate(SimulateArgs),
@@ -116,16 +135,47 @@ pub struct SheetArgs {
 
 #[derive(Debug, Args)]
 pub struct DemoArgs {
-    /// Folder for the demo's scans (created; a new numbered scan each run).
+    /// Folder for the demo's daemon socket and scans (created; each run
+    /// adds a new numbered scan under OUT/scans).
     #[arg(long, default_value = "out/demo")]
     pub out: PathBuf,
-    #[command(flatten)]
-    pub scene: SceneArgs,
+    /// Random seed of the scene and the renderer.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Scene kind: multimat, multimat-noenv, 2mat, 2mat-transmission, 3mat,
+    /// sweep-subsurface, sweep-basecolor, sweep-roughness.
+    #[arg(long, default_value = "2mat")]
+    pub kind: String,
+    /// Geometry: sphere, torus, superquadric, blob, leaves or random.
+    #[arg(long, default_value = "random")]
+    pub geometry: String,
+    /// Photo width and height in pixels.
+    #[arg(long, default_value_t = 128)]
+    pub size: u32,
+    /// Number of scan-head positions (the simulated turntable turns
+    /// between them).
+    #[arg(long, default_value_t = 3)]
+    pub positions: usize,
+    /// Path-tracing samples per pixel of each photo.
+    #[arg(long, default_value_t = 16)]
+    pub samples: u32,
+    /// Folder with `<param>.weights` per network (default: the weights
+    /// built into this binary).
+    #[arg(long, value_name = "DIR")]
+    pub weights: Option<PathBuf>,
 }
 
 pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
-        Command::Demo(a) => demo(a),
+        Command::Demo(a) => crate::demo::run(&a),
+        Command::Estimate(a) => crate::estimate_cmd::run(&a),
+        Command::Eval(a) => crate::eval_cmd::run(&a),
+        Command::Daemon(a) => {
+            matscan::service::run_daemon(&a).context("matscan daemon")?;
+            Ok(())
+        }
+        Command::CaptureNow(a) => exit_with(matscan::client::capture_now(&a)),
+        Command::Status(a) => exit_with(matscan::client::status(&a)),
         Command::Simulate(a) => simulate(a),
         Command::Calib(a) => match (a.action, a.scan) {
             (Some(CalibAction::Check { scan, json }), _) => {
@@ -212,37 +262,11 @@ fn simulate(a: SimulateArgs) -> Result<()> {
     }
 }
 
-/// A fresh, numbered scan folder under `root`, so a demo never overwrites an
-/// earlier scan.
-fn next_scan_folder(root: &Path) -> Result<PathBuf> {
-    std::fs::create_dir_all(root).with_context(|| format!("creating {}", root.display()))?;
-    for i in 1..100_000u32 {
-        let p = root.join(format!("scan-{i:04}"));
-        if !p.exists() {
-            return Ok(p);
-        }
+/// Ends the process with a client's documented exit code.
+fn exit_with(code: u8) -> Result<()> {
+    if code == 0 {
+        Ok(())
+    } else {
+        std::process::exit(i32::from(code))
     }
-    bail!("{}: no free scan-NNNN name left", root.display())
-}
-
-fn demo(a: DemoArgs) -> Result<()> {
-    let (options, sim) = scene_options(&a.scene)?;
-    let scan = next_scan_folder(&a.out)?;
-    println!(
-        "simulated rig: {} scene, {} positions, {}x{} px, seed {}",
-        a.scene.kind, a.scene.positions, a.scene.size, a.scene.size, a.scene.seed
-    );
-    let t = Instant::now();
-    let secs = crate::simulate::simulate_one(&options, &sim, &scan)?;
-    println!("capture (render)   {secs:8.2} s  -> {}", scan.display());
-    let t_sheet = Instant::now();
-    let sheet = scan.join("sheet.png");
-    crate::sheet::draw_contact_sheet(&scan, &sheet)?;
-    println!(
-        "contact sheet      {:8.2} s  -> {}",
-        t_sheet.elapsed().as_secs_f64(),
-        sheet.display()
-    );
-    println!("total              {:8.2} s", t.elapsed().as_secs_f64());
-    Ok(())
 }

@@ -3,7 +3,8 @@
 //!
 //! Exit codes (also documented there): 0 success; 1 a usage or protocol
 //! error; 3 the daemon is unreachable; 4 the daemon refused the request
-//! (busy, unknown profile, stopping); 5 the capture failed.
+//! (busy, unknown profile, stopping); 5 the capture failed; 6 the scan was
+//! captured but its estimate failed (`--wait` only).
 //!
 //! Boundaries: talks to the socket and prints; no capture logic.
 
@@ -139,11 +140,17 @@ impl Connection {
 pub enum CaptureNow {
     /// Queued (without `--wait`).
     Queued { job: u64 },
-    /// Captured and published (with `--wait`).
+    /// Captured, published and processed by the worker (with `--wait`).
     Captured {
         job: u64,
         scan: PathBuf,
+        /// The capture's summary (positions, photos, retries, seconds).
         summary: Value,
+        /// The calibration verdict.
+        check: Value,
+        /// The estimate's outcome (`null` when the daemon does not
+        /// estimate).
+        estimate: Value,
     },
 }
 
@@ -168,6 +175,8 @@ pub fn request_capture(
         return Ok(CaptureNow::Queued { job });
     }
     conn.send(&json!({"cmd": "watch", "job": job}))?;
+    let mut captured: Option<(PathBuf, Value)> = None;
+    let (mut check, mut estimate) = (Value::Null, Value::Null);
     loop {
         let event = conn.receive()?;
         match event["event"].as_str() {
@@ -175,10 +184,26 @@ pub fn request_capture(
                 let scan = event["scan"].as_str().map(PathBuf::from).ok_or_else(|| {
                     conn.protocol(format!("a done event without a scan: {event}"))
                 })?;
+                progress(&event);
+                captured = Some((scan, event["summary"].clone()));
+            }
+            Some("checked") => {
+                progress(&event);
+                check = event["check"].clone();
+            }
+            Some("estimated") => {
+                progress(&event);
+                estimate = event["estimate"].clone();
+            }
+            Some("finished") => {
+                let (scan, summary) = captured
+                    .ok_or_else(|| conn.protocol(format!("job {job} finished without a scan")))?;
                 return Ok(CaptureNow::Captured {
                     job,
                     scan,
-                    summary: event["summary"].clone(),
+                    summary,
+                    check,
+                    estimate,
                 });
             }
             Some("failed") => {
@@ -230,9 +255,19 @@ pub fn capture_now(args: &CaptureNowArgs) -> u8 {
             }
             0
         }
-        Ok(CaptureNow::Captured { job, scan, summary }) => {
+        Ok(CaptureNow::Captured {
+            job,
+            scan,
+            summary,
+            check,
+            estimate,
+        }) => {
             if args.json {
-                println!("{}", json!({"job": job, "scan": scan, "summary": summary}));
+                println!(
+                    "{}",
+                    json!({"job": job, "scan": scan, "summary": summary,
+                           "check": check, "estimate": estimate})
+                );
             } else {
                 println!("{}", scan.display());
                 println!(
@@ -248,8 +283,13 @@ pub fn capture_now(args: &CaptureNowArgs) -> u8 {
                         println!("  left out {}", l.as_str().unwrap_or(""));
                     }
                 }
+                println!("calibration check: {}", format_check(&check));
+                print!("{}", format_estimate(&estimate));
             }
-            0
+            match estimate["outcome"].as_str() {
+                Some("failed") => 6,
+                _ => 0,
+            }
         }
         Err(e) => report(&e, args.json),
     }
@@ -309,14 +349,96 @@ pub fn format_status(s: &Value) -> String {
         out += "scans:\n";
         for scan in scans {
             let check = match scan["check"]["verdict"].as_str() {
-                Some("passed") => "check passed".to_string(),
-                Some("problems") => format!("check problems: {}", scan["check"]["problems"]),
-                Some("failed") => format!("check failed: {}", text(&scan["check"]["error"])),
-                _ => "checking".to_string(),
+                Some(_) => format!("check {}", format_check(&scan["check"])),
+                None => "checking".to_string(),
             };
-            out += &format!("  job {} {} ({check})\n", scan["job"], text(&scan["scan"]));
+            let estimate = match scan["estimate"]["outcome"].as_str() {
+                Some("estimated") => format!(
+                    "; estimated in {:.1} s",
+                    scan["estimate"]["summary"]["seconds"]
+                        .as_f64()
+                        .unwrap_or(0.0)
+                ),
+                Some("failed") => {
+                    format!("; estimate failed: {}", text(&scan["estimate"]["error"]))
+                }
+                _ => String::new(),
+            };
+            out += &format!(
+                "  job {} {} ({check}{estimate})\n",
+                scan["job"],
+                text(&scan["scan"])
+            );
         }
     }
+    out
+}
+
+/// The calibration verdict in words.
+pub fn format_check(check: &Value) -> String {
+    match check["verdict"].as_str() {
+        Some("passed") => "passed".to_string(),
+        Some("problems") => format!("problems: {}", check["problems"]),
+        Some("failed") => format!("failed: {}", check["error"].as_str().unwrap_or("?")),
+        _ => "not done".to_string(),
+    }
+}
+
+/// The estimate outcome (the worker's `estimated` event) as a table: each
+/// parameter's status, its error against the truth where the scan has one,
+/// and the network run times.
+pub fn format_estimate(estimate: &Value) -> String {
+    match estimate["outcome"].as_str() {
+        Some("estimated") => {}
+        Some("failed") => {
+            return format!(
+                "estimate failed: {}\n",
+                estimate["error"].as_str().unwrap_or("no reason given")
+            )
+        }
+        _ => return "no estimate (estimation is off in the daemon's config)\n".to_string(),
+    }
+    let s = &estimate["summary"];
+    let mut out = format!(
+        "estimate: {} views -> {}\n{:<13} {:<10} {:>8} {:>9} {:>8} {:>9}\n",
+        s["views"],
+        s["out"].as_str().unwrap_or("?"),
+        "parameter",
+        "status",
+        "MAD",
+        "MSE",
+        "PSNR dB",
+        "network s"
+    );
+    if let Some(params) = s["params"].as_object() {
+        for (name, p) in params {
+            let num = |key: &str, digits: usize| {
+                p[key]
+                    .as_f64()
+                    .map_or("-".to_string(), |v| format!("{v:.digits$}"))
+            };
+            let secs = s["networks"][name]
+                .as_f64()
+                .map_or("-".to_string(), |v| format!("{v:.2}"));
+            out += &format!(
+                "{:<13} {:<10} {:>8} {:>9} {:>8} {:>9}",
+                name,
+                p["status"].as_str().unwrap_or("?"),
+                num("mad", 4),
+                num("mse", 5),
+                num("psnr", 2),
+                secs
+            );
+            if let Some(r) = p["reason"].as_str() {
+                out += &format!("  ({r})");
+            }
+            out += "\n";
+        }
+    }
+    out += &format!(
+        "estimate total {:.2} s\n",
+        s["seconds"].as_f64().unwrap_or(0.0)
+    );
     out
 }
 

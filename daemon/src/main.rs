@@ -1,9 +1,11 @@
-//! `matscan`: the command line and (later) the daemon of the scanner PC.
+//! `matscan`: the command line and the daemon of the scanner PC.
 //!
 //! This binary is the edge of the system: it parses arguments, sets up
 //! logging, and turns library errors into context-rich messages (`anyhow`).
 //! The work itself lives in the library crates: `matscan-scan` (bundles),
-//! `matscan-sim` (the simulated rig), `matscan-calib` (per-pixel maps).
+//! `matscan-sim` (the simulated rig), `matscan-calib` (per-pixel maps),
+//! `matscan-estimate` (the networks), and this package's library (the
+//! daemon service and its clients).
 //!
 //! Crate choices: `clap` (derive) for arguments and `--help`; `indicatif`
 //! for progress bars on long runs; `tracing-subscriber` for logs on stderr
@@ -11,6 +13,9 @@
 
 mod calib_cmd;
 mod cli;
+mod demo;
+mod estimate_cmd;
+mod eval_cmd;
 mod font;
 mod sheet;
 mod simulate;

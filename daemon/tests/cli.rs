@@ -32,32 +32,111 @@ fn simulate(out: &Path) {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
 }
 
+/// Small random networks for all five parameters, as a `--weights` folder.
+fn test_weights(dir: &Path) -> std::path::PathBuf {
+    use matscan_estimate::{cpu_device, Models, ParamKind};
+    let weights = dir.join("weights");
+    Models::seeded(&ParamKind::ALL, 8, 5, &cpu_device())
+        .unwrap()
+        .save_dir(&weights)
+        .unwrap();
+    weights
+}
+
 #[test]
-fn demo_simulates_a_numbered_scan_and_draws_its_sheet() {
+fn demo_captures_through_the_daemon_estimates_and_prints_errors_and_timings() {
     let tmp = tempfile::tempdir().unwrap();
     let root = tmp.path().join("demo");
+    let weights = test_weights(tmp.path());
     let args = [
         "demo",
         "--out",
         root.to_str().unwrap(),
         "--size",
-        "48",
+        "32",
+        "--positions",
+        "2",
         "--samples",
         "2",
+        "--weights",
+        weights.to_str().unwrap(),
     ];
     let first = matscan(&args);
+    let out = stdout(&first);
     assert!(
         first.status.success(),
-        "{}",
+        "{out}{}",
         String::from_utf8_lossy(&first.stderr)
     );
-    assert!(stdout(&first).contains("capture (render)"));
-    assert!(root.join("scan-0001/scan.toml").exists());
-    assert!(root.join("scan-0001/sheet.png").exists());
-    // A second run never overwrites the first scan.
+    assert!(out.contains("capture "), "{out}");
+    // A row per parameter; metallic is always estimable, with its error.
+    let metallic = out
+        .lines()
+        .find(|l| l.starts_with("metallic"))
+        .unwrap_or_else(|| panic!("no metallic row in {out}"));
+    let mad: f64 = metallic.split_whitespace().nth(2).unwrap().parse().unwrap();
+    assert!((0.0..=1.0).contains(&mad), "{metallic}");
+    for p in ["basecolor", "roughness", "transmission", "subsurface"] {
+        assert!(out.lines().any(|l| l.starts_with(p)), "{p} in {out}");
+    }
+    assert!(out.contains("estimate total"), "{out}");
+    let scan = root.join("scans/scan-0001");
+    assert!(scan.join("scan.toml").exists());
+    assert!(scan.join("estimate/result.toml").exists());
+    assert!(scan.join("sheet.png").exists());
+    // The daemon stopped: its socket is gone, and a second run never
+    // overwrites the first scan.
+    assert!(!root.join("matscan.sock").exists());
     let second = matscan(&args);
     assert!(second.status.success());
-    assert!(root.join("scan-0002/scan.toml").exists());
+    assert!(root.join("scans/scan-0002/scan.toml").exists());
+}
+
+#[test]
+fn estimate_writes_the_contract_folder_and_reports_each_parameter() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scan = tmp.path().join("scan");
+    simulate(&scan);
+    let weights = test_weights(tmp.path());
+    let o = matscan(&[
+        "estimate",
+        scan.to_str().unwrap(),
+        "--weights",
+        weights.to_str().unwrap(),
+        "--given",
+        "subsurface=0",
+    ]);
+    let out = stdout(&o);
+    assert!(
+        o.status.success(),
+        "{out}{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(out.contains("subsurface: given"), "{out}");
+    assert!(out.contains("metallic: estimated"), "{out}");
+    assert!(out.contains("MAD"), "{out}");
+    assert!(scan.join("estimate/result.toml").exists());
+    // A missing weights folder is named.
+    let o = matscan(&[
+        "estimate",
+        scan.to_str().unwrap(),
+        "--weights",
+        "/nonexistent/weights",
+    ]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("/nonexistent/weights"));
+}
+
+#[test]
+fn status_and_capture_now_without_a_daemon_exit_3_and_name_the_socket() {
+    let tmp = tempfile::tempdir().unwrap();
+    let socket = tmp.path().join("none.sock");
+    for cmd in ["status", "capture-now"] {
+        let o = matscan(&[cmd, "--socket", socket.to_str().unwrap()]);
+        assert_eq!(o.status.code(), Some(3), "{cmd}");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(err.contains("none.sock"), "{cmd}: {err}");
+    }
 }
 
 #[test]

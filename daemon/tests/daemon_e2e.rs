@@ -13,14 +13,45 @@ use std::time::{Duration, Instant};
 #[test]
 fn capture_now_wait_publishes_a_valid_bundle_that_status_lists_and_the_worker_checks() {
     let dir = tempfile::tempdir().unwrap();
-    let d = TestDaemon::start(dir.path(), "", "positions = 2");
+    let weights = daemon_support::test_weights(dir.path());
+    let d = TestDaemon::start(dir.path(), &weights, "positions = 2");
     let mode = std::fs::metadata(&d.socket).unwrap().permissions().mode();
     assert_eq!(mode & 0o777, 0o660, "control socket mode");
     let mut events = Vec::new();
     let done = request_capture(&d.socket, None, true, &mut |e| events.push(e.clone())).unwrap();
-    let CaptureNow::Captured { job, scan, summary } = done else {
+    let CaptureNow::Captured {
+        job,
+        scan,
+        summary,
+        check,
+        estimate,
+    } = done
+    else {
         panic!("expected a finished capture, got {done:?}");
     };
+    let verdict = check["verdict"].as_str().unwrap();
+    assert!(verdict == "passed" || verdict == "problems", "{check}");
+    // The estimate is in the scan folder, with every parameter accounted
+    // for and finite errors against the simulated truth.
+    assert_eq!(estimate["outcome"], "estimated", "{estimate}");
+    let result_file = scan.join("estimate/result.toml");
+    let result =
+        matscan_estimate::ResultFile::parse(&std::fs::read_to_string(&result_file).unwrap())
+            .unwrap();
+    for kind in matscan_estimate::ParamKind::ALL {
+        let p = &estimate["summary"]["params"][kind.name()];
+        assert!(p["status"].is_string(), "{kind}: {estimate}");
+        assert!(result.param(kind).is_some(), "{kind} in {result_file:?}");
+        if p["status"] == "estimated" {
+            let mad = p["mad"].as_f64().unwrap();
+            assert!((0.0..=1.0).contains(&mad), "{kind}: {p}");
+        }
+    }
+    assert_eq!(
+        estimate["summary"]["params"]["metallic"]["status"],
+        "estimated"
+    );
+    assert!(events.iter().any(|e| e["event"] == "estimated"));
     assert_eq!(job, 1);
     assert_eq!(scan, d.scans.join("scan-0001"));
     assert_eq!(summary["positions"], 2);
@@ -40,11 +71,12 @@ fn capture_now_wait_publishes_a_valid_bundle_that_status_lists_and_the_worker_ch
     let deadline = Instant::now() + Duration::from_secs(120);
     let status = loop {
         let s = fetch_status(&d.socket).unwrap();
-        if !s["last_scans"][0]["check"].is_null() || Instant::now() > deadline {
+        if !s["last_scans"][0]["estimate"].is_null() || Instant::now() > deadline {
             break s;
         }
         std::thread::sleep(Duration::from_millis(100));
     };
+    assert_eq!(status["last_scans"][0]["estimate"]["outcome"], "estimated");
     assert_eq!(status["state"], "idle");
     assert_eq!(status["last_scans"][0]["scan"], scan.to_str().unwrap());
     let verdict = status["last_scans"][0]["check"]["verdict"]

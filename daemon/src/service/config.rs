@@ -50,6 +50,26 @@ pub struct Config {
     /// The profile of a capture request that names none.
     pub default_profile: String,
     pub capture: CaptureSettings,
+    pub estimate: EstimateSettings,
+}
+
+/// What the worker does with a published scan after checking it.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct EstimateSettings {
+    /// Estimate the BSDF maps into `<scan>/estimate` (default true).
+    pub enabled: bool,
+    /// A folder with `<param>.weights` per network; `None`: the weights
+    /// built into the binary.
+    pub weights: Option<PathBuf>,
+}
+
+impl Default for EstimateSettings {
+    fn default() -> Self {
+        EstimateSettings {
+            enabled: true,
+            weights: None,
+        }
+    }
 }
 
 /// Which rig the daemon drives.
@@ -159,7 +179,16 @@ struct RawConfig {
     profiles: BTreeMap<String, RawProfile>,
     #[serde(default)]
     capture: RawCapture,
+    #[serde(default)]
+    estimate: RawEstimate,
     simulated: Option<RawSimulated>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawEstimate {
+    enabled: Option<bool>,
+    weights: Option<PathBuf>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -306,8 +335,24 @@ impl Config {
                 ))
             }
         };
+        let estimate = EstimateSettings {
+            enabled: raw.estimate.enabled.unwrap_or(true),
+            weights: raw.estimate.weights,
+        };
+        if let Some(w) = &estimate.weights {
+            if !w.is_dir() {
+                return Err(invalid(
+                    "estimate.weights",
+                    format!(
+                        "{}: expected a folder holding <param>.weights files",
+                        w.display()
+                    ),
+                ));
+            }
+        }
         Ok(Config {
             rig,
+            estimate,
             socket: raw.socket.unwrap_or_else(|| PathBuf::from(DEFAULT_SOCKET)),
             scans: raw.scans.unwrap_or_else(|| PathBuf::from(DEFAULT_SCANS)),
             busy,
@@ -403,6 +448,7 @@ mod tests {
         assert_eq!(c.busy, BusyPolicy::Queue { limit: 4 });
         assert_eq!(c.default_profile, FULL_PROFILE);
         assert_eq!(c.capture, CaptureSettings::default());
+        assert_eq!(c.estimate, EstimateSettings::default());
         let RigChoice::Simulated(s) = &c.rig;
         assert_eq!(
             (s.size, s.positions, s.samples, s.turntable),
@@ -448,6 +494,10 @@ mod tests {
                 "unknown field `sockett`",
             ),
             ("socket = \"/x\"", "missing field `rig`"),
+            (
+                "rig = \"simulated\"\n[estimate]\nweights = \"/nonexistent/w\"",
+                "`estimate.weights`: /nonexistent/w: expected a folder",
+            ),
         ];
         for (text, want) in cases {
             let e = parse(text).unwrap_err().to_string();

@@ -1,14 +1,17 @@
 //! Opens the configured rig: for `rig = "simulated"`, a scene generated
 //! from the config's seed behind the drivers' simulated rig, whose
-//! geometry and calibration come from that same scene.
+//! geometry and calibration come from that same scene, and whose material
+//! becomes the scan's truth maps (so estimates of simulated scans report
+//! their error).
 //!
 //! Boundaries: builds a [`Rig`]; takes no photo.
 
 use super::config::{RigChoice, SimulatedRigConfig};
-use super::sequencer::{PositionGeometry, Rig, RigGeometry};
+use super::sequencer::{PositionGeometry, Rig, RigGeometry, TruthSource};
 use matscan_drivers::serial::BoardFaults;
 use matscan_drivers::sim_rig::{SimConfig, SimFaults, SimulatedRig};
 use matscan_drivers::DriverError;
+use matscan_scan::bundle::BundleWriter;
 use matscan_sim::render::bundle_writer::checker_periods;
 use matscan_sim::scene::{generate, rig_to_manifest_lights, GeometrySource, Scene, SceneOptions};
 use std::num::NonZeroU32;
@@ -33,6 +36,7 @@ fn open_simulated(c: &SimulatedRigConfig) -> Result<Rig, DriverError> {
         map_size: 64,
     });
     let geometry = geometry_of(&scene, c.size);
+    let truth = SceneTruth(scene.clone());
     let config = SimConfig {
         width: c.size,
         height: c.size,
@@ -70,7 +74,19 @@ fn open_simulated(c: &SimulatedRigConfig) -> Result<Rig, DriverError> {
         trigger,
         disk: Some(Box::new(rig.disk)),
         geometry,
+        truth: Some(Box::new(truth)),
     })
+}
+
+/// The simulated scene's material, rendered as the contract's truth maps.
+struct SceneTruth(Scene);
+
+impl TruthSource for SceneTruth {
+    fn write(&self, writer: &BundleWriter, index: usize, position: &str) -> Result<(), String> {
+        let renderer = matscan_sim::render::Renderer::new(&self.0).map_err(|e| e.to_string())?;
+        let maps = renderer.render_truth(index).map_err(|e| e.to_string())?;
+        matscan_sim::render::write_truth(writer, position, &maps).map_err(|e| e.to_string())
+    }
 }
 
 /// The simulated footswitch with its button kept alive, so that waiting

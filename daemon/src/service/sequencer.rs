@@ -58,6 +58,15 @@ impl DiskQuota for matscan_drivers::sim_rig::SimDisk {
     }
 }
 
+/// Ground truth a rig knows about its object (only a simulated one does):
+/// written into each position of the scan so that the estimate reports its
+/// error.
+pub trait TruthSource {
+    /// Writes position `index`'s truth maps (named `position`) into the
+    /// scan being written.
+    fn write(&self, writer: &BundleWriter, index: usize, position: &str) -> Result<(), String>;
+}
+
 /// The rig's devices and what is known about them.
 pub struct Rig {
     pub camera: Box<dyn Camera>,
@@ -68,10 +77,14 @@ pub struct Rig {
     pub trigger: Option<Box<dyn Trigger>>,
     pub disk: Option<Box<dyn DiskQuota>>,
     pub geometry: RigGeometry,
+    /// `Some` for the simulated rig.
+    pub truth: Option<Box<dyn TruthSource>>,
 }
 
 #[derive(Debug, thiserror::Error)]
 pub enum CaptureError {
+    #[error("writing the simulated truth of position {position}: {message}")]
+    Truth { position: String, message: String },
     #[error("{0}")]
     Driver(#[from] DriverError),
     #[error("writing the scan: {0}")]
@@ -227,6 +240,14 @@ impl Rig {
                     total,
                     what: format!("{}/{}", geometry.name, planned.name),
                 });
+            }
+            if let Some(truth) = &self.truth {
+                truth
+                    .write(&writer, index, &geometry.name)
+                    .map_err(|message| CaptureError::Truth {
+                        position: geometry.name.clone(),
+                        message,
+                    })?;
             }
             positions.push(Position {
                 name: geometry.name.clone(),

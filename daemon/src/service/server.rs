@@ -11,7 +11,7 @@ use super::notify::Notifier;
 use super::plan::plan;
 use super::sequencer::{CaptureError, Progress, Rig, RunSettings};
 use super::state::{JobStage, Shared};
-use super::worker::{Job, Worker};
+use super::worker::{EstimateOutcome, Job, Processed, Worker};
 use serde_json::json;
 use std::os::unix::fs::PermissionsExt;
 use std::os::unix::net::{UnixListener, UnixStream};
@@ -94,16 +94,29 @@ impl Server {
             .set_nonblocking(true)
             .map_err(io_err(&config.socket, "setting the socket non-blocking"))?;
         let worker_shared = shared.clone();
-        let worker = Worker::spawn(move |job, verdict| {
+        let worker = Worker::spawn(config.estimate.clone(), move |job, processed| {
             worker_shared.update(|s| {
+                let Processed { check, estimate } = processed;
                 s.event(
                     job.id,
-                    json!({"event": "checked", "job": job.id, "check": verdict}),
+                    json!({"event": "checked", "job": job.id, "check": check}),
                 );
-                if let Some(j) = s.jobs.get_mut(&job.id) {
-                    j.check = Some(verdict);
+                if let Some(e) = &estimate {
+                    s.event(
+                        job.id,
+                        json!({"event": "estimated", "job": job.id, "estimate": e}),
+                    );
+                    if let EstimateOutcome::Failed { error } = e {
+                        s.last_error = Some(format!("job {}: estimate: {error}", job.id));
+                    }
                 }
-            })
+                s.event(job.id, json!({"event": "finished", "job": job.id}));
+                if let Some(j) = s.jobs.get_mut(&job.id) {
+                    j.check = Some(check);
+                    j.estimate = estimate;
+                    j.processed = true;
+                }
+            });
         })
         .map_err(io_err(&config.socket, "starting the estimation worker"))?;
         let capture = {
@@ -211,7 +224,13 @@ fn capture_loop(config: &Config, shared: &Shared, worker: Worker) {
                             summary,
                         },
                     );
-                    if !worker.submit(Job { id, scan }) {
+                    let given = s
+                        .jobs
+                        .get(&id)
+                        .and_then(|j| config.profiles.get(&j.profile))
+                        .map(|p| p.given.iter().copied().collect())
+                        .unwrap_or_default();
+                    if !worker.submit(Job { id, scan, given }) {
                         tracing::error!("job {id}: the estimation worker is gone");
                     }
                 }

@@ -1,14 +1,14 @@
 //! The control socket's protocol (documented in `docs/daemon-protocol.md`):
 //! one JSON object per line each way. Requests: `{"cmd":"capture",
 //! "profile":P}` (profile optional), `{"cmd":"status"}`, `{"cmd":"watch",
-//! "job":N}`; `watch` streams the job's events until it is captured or has
-//! failed. A connection may send several requests in turn.
+//! "job":N}`; `watch` streams the job's events until it has failed or the
+//! worker is done with its scan (`finished`). A connection may send several requests in turn.
 //!
 //! Boundaries: parses requests and answers them from the shared state;
 //! captures happen on the capture thread (`super::server`).
 
 use super::config::{BusyPolicy, Config};
-use super::state::Shared;
+use super::state::{JobStage, Shared};
 use serde::Deserialize;
 use serde_json::{json, Value};
 use std::io::{BufRead, BufReader, Write};
@@ -136,7 +136,11 @@ fn watch(w: &mut UnixStream, shared: &Shared, id: u64) -> std::io::Result<()> {
             return Ok(());
         }
         guard = shared.lock();
-        if stopping && guard.current != Some(id) {
+        let queued = guard
+            .jobs
+            .get(&id)
+            .is_some_and(|j| matches!(j.stage, JobStage::Queued));
+        if stopping && queued {
             // A queued job never runs once the daemon stops.
             drop(guard);
             return send(

@@ -5,7 +5,7 @@
 //!
 //! Boundaries: bookkeeping only; no device, file or socket I/O.
 
-use super::worker::Verdict;
+use super::worker::{EstimateOutcome, Verdict};
 use serde_json::{json, Value};
 use std::collections::{BTreeMap, VecDeque};
 use std::path::PathBuf;
@@ -32,14 +32,22 @@ pub struct JobRecord {
     pub events: Vec<Value>,
     /// The estimation worker's verdict, once it has one.
     pub check: Option<Verdict>,
+    /// The estimate, once the worker has made it (stays `None` when
+    /// estimation is off).
+    pub estimate: Option<EstimateOutcome>,
+    /// The worker is done with this job's scan.
+    pub processed: bool,
 }
 
 impl JobRecord {
+    /// Nothing more will happen to this job: its capture failed, or the
+    /// worker is done with its scan.
     pub fn finished(&self) -> bool {
-        matches!(
-            self.stage,
-            JobStage::Captured { .. } | JobStage::Failed { .. }
-        )
+        match self.stage {
+            JobStage::Failed { .. } => true,
+            JobStage::Captured { .. } => self.processed,
+            _ => false,
+        }
     }
 }
 
@@ -68,6 +76,8 @@ impl State {
                 stage: JobStage::Queued,
                 events: vec![json!({"event": "queued", "job": id, "profile": profile})],
                 check: None,
+                estimate: None,
+                processed: false,
             },
         );
         self.queue.push_back(id);
@@ -130,6 +140,7 @@ impl State {
                     "scan": scan,
                     "summary": summary,
                     "check": j.check,
+                    "estimate": j.estimate,
                 })),
                 _ => None,
             })

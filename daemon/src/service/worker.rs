@@ -1,18 +1,28 @@
 //! The estimation worker: a thread fed through a `crossbeam-channel`, so
 //! that the next capture can start while the last scan is processed.
 //!
-//! For now the worker checks each new scan's calibration against its
-//! photos (`matscan_calib::check`, as `matscan calib check` does) and
-//! reports the verdict; the estimator is hooked in here later, after the
-//! check.
+//! Per scan it first checks the calibration against the photos
+//! (`matscan_calib::check`, as `matscan calib check` does), then, unless the
+//! configuration turns it off, estimates the BSDF maps into
+//! `<scan>/estimate` (`matscan_estimate::estimate`, as `matscan estimate`
+//! does). Parameters the capture profile gives are passed as the
+//! documented defaults (`matscan_estimate::plan::default_value`: 0 for
+//! metallic, transmission and subsurface), so an "opaque" profile means
+//! what it says; parameters the captures cannot support are skipped by the
+//! estimator with the reason in `result.toml`.
 //!
-//! Boundaries: reads published scans only; never writes into them.
+//! Boundaries: writes only the scan's `estimate/` folder (atomically, via
+//! the estimator); never touches the photos.
 
+use super::config::EstimateSettings;
 use crossbeam_channel::{unbounded, Sender};
 use matscan_calib::check::{check, CheckOptions};
 use matscan_calib::{calibrate_bundle, CalibOptions};
-use matscan_scan::Bundle;
+use matscan_estimate::plan::default_value;
+use matscan_estimate::{cpu_device, estimate, EstimateOptions, Given, ModelSource, ParamKind};
+use matscan_scan::{Bundle, Param};
 use serde::Serialize;
+use serde_json::{json, Value};
 use std::path::{Path, PathBuf};
 use std::thread::JoinHandle;
 
@@ -21,6 +31,30 @@ use std::thread::JoinHandle;
 pub struct Job {
     pub id: u64,
     pub scan: PathBuf,
+    /// Parameters the capture profile gives.
+    pub given: Vec<Param>,
+}
+
+/// What the worker made of a scan: the calibration verdict, then the
+/// estimate (`None` when estimation is turned off).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Processed {
+    pub check: Verdict,
+    pub estimate: Option<EstimateOutcome>,
+}
+
+/// How the estimate of a scan ended.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(tag = "outcome", rename_all = "snake_case")]
+pub enum EstimateOutcome {
+    /// `summary`: the folder, each parameter's status (with metrics where
+    /// the scan has truth) and the timings.
+    Estimated {
+        summary: Value,
+    },
+    Failed {
+        error: String,
+    },
 }
 
 /// What the worker concluded about a scan.
@@ -43,8 +77,11 @@ pub struct Worker {
 }
 
 impl Worker {
-    /// Starts the thread; `done` hears each job's verdict.
-    pub fn spawn(done: impl Fn(&Job, Verdict) + Send + 'static) -> std::io::Result<Worker> {
+    /// Starts the thread; `done` hears what became of each job.
+    pub fn spawn(
+        settings: EstimateSettings,
+        done: impl Fn(&Job, Processed) + Send + 'static,
+    ) -> std::io::Result<Worker> {
         let (tx, rx) = unbounded::<Job>();
         let handle = std::thread::Builder::new()
             .name("matscan-estimate".into())
@@ -65,7 +102,26 @@ impl Worker {
                             tracing::error!("job {}: cannot check the scan: {error}", job.id)
                         }
                     }
-                    done(&job, verdict);
+                    let estimate = settings.enabled.then(|| {
+                        tracing::info!("job {}: estimating {}", job.id, job.scan.display());
+                        let outcome = estimate_scan(&job, &settings);
+                        match &outcome {
+                            EstimateOutcome::Estimated { summary } => {
+                                tracing::info!("job {}: estimated: {summary}", job.id)
+                            }
+                            EstimateOutcome::Failed { error } => {
+                                tracing::error!("job {}: estimate failed: {error}", job.id)
+                            }
+                        }
+                        outcome
+                    });
+                    done(
+                        &job,
+                        Processed {
+                            check: verdict,
+                            estimate,
+                        },
+                    );
                 }
             })?;
         Ok(Worker {
@@ -122,6 +178,59 @@ pub fn check_scan(scan: &Path) -> Verdict {
     }
 }
 
+/// Estimates `job`'s scan into `<scan>/estimate`.
+pub fn estimate_scan(job: &Job, settings: &EstimateSettings) -> EstimateOutcome {
+    let models = match &settings.weights {
+        Some(dir) => ModelSource::Dir(dir.clone()),
+        None => ModelSource::Embedded,
+    };
+    let given = job
+        .given
+        .iter()
+        .filter_map(|p| ParamKind::from_name(p.name()))
+        .map(|k| (k, Given::Constant(default_value(k))))
+        .collect();
+    let options = EstimateOptions {
+        given,
+        ..EstimateOptions::default()
+    };
+    match estimate(&job.scan, models, &options, &cpu_device()) {
+        Ok(report) => EstimateOutcome::Estimated {
+            summary: summary(&report.out, &report.result),
+        },
+        Err(e) => EstimateOutcome::Failed {
+            error: format!("{}: {e}", job.scan.display()),
+        },
+    }
+}
+
+/// The JSON summary of an estimate: what `capture-now --wait` prints.
+pub fn summary(out: &Path, result: &matscan_estimate::ResultFile) -> Value {
+    let params: serde_json::Map<String, Value> = ParamKind::ALL
+        .iter()
+        .filter_map(|k| result.param(*k).map(|p| (*k, p)))
+        .map(|(k, p)| {
+            let mut v = json!({"status": p.status});
+            if let Some(r) = &p.reason {
+                v["reason"] = json!(r);
+            }
+            if let Some(m) = result.metrics.get(k.name()) {
+                v["mad"] = json!(m.mad);
+                v["mse"] = json!(m.mse);
+                v["psnr"] = json!(m.psnr);
+            }
+            (k.name().to_string(), v)
+        })
+        .collect();
+    json!({
+        "out": out,
+        "views": result.views.len(),
+        "params": params,
+        "seconds": result.timings.total_s,
+        "networks": result.timings.networks,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -130,18 +239,28 @@ mod tests {
     #[test]
     fn a_missing_scan_is_reported_as_failed_with_its_path() {
         let (tx, rx) = channel();
-        let worker = Worker::spawn(move |job, v| tx.send((job.id, v)).unwrap()).unwrap();
+        let worker = Worker::spawn(EstimateSettings::default(), move |job, v| {
+            tx.send((job.id, v)).unwrap()
+        })
+        .unwrap();
         assert!(worker.submit(Job {
             id: 7,
             scan: PathBuf::from("/nonexistent/scan-0001"),
+            given: vec![],
         }));
-        let (id, verdict) = rx.recv().unwrap();
+        let (id, processed) = rx.recv().unwrap();
         assert_eq!(id, 7);
-        match verdict {
+        match processed.check {
             Verdict::Failed { error } => {
                 assert!(error.contains("/nonexistent/scan-0001"), "{error}")
             }
             other => panic!("expected a failure, got {other:?}"),
+        }
+        match processed.estimate {
+            Some(EstimateOutcome::Failed { error }) => {
+                assert!(error.contains("/nonexistent/scan-0001"), "{error}")
+            }
+            other => panic!("expected a failed estimate, got {other:?}"),
         }
         worker.finish();
     }

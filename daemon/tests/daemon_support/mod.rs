@@ -32,10 +32,29 @@ pub fn config_text(socket: &Path, scans: &Path, top: &str, simulated: &str) -> S
     .filter(|l| !overridden.contains(&l.split('=').next().unwrap_or("").trim()))
     .map(|l| format!("{l}\n"))
     .collect();
+    // Estimation is the slow part of a job; tests that are about capture
+    // turn it off, tests about estimation bring their own `[estimate]`.
+    let estimate = if top.contains("[estimate]") {
+        ""
+    } else {
+        "[estimate]\nenabled = false\n"
+    };
     format!(
-        "rig = \"simulated\"\nsocket = {socket:?}\nscans = {scans:?}\n{top}\n\
+        "rig = \"simulated\"\nsocket = {socket:?}\nscans = {scans:?}\n{top}\n{estimate}\
          [simulated]\n{defaults}{simulated}\n"
     )
+}
+
+/// Small random networks for all five parameters in `dir`, as the daemon's
+/// `[estimate] weights` folder; returns the config section naming them.
+pub fn test_weights(dir: &Path) -> String {
+    use matscan_estimate::{cpu_device, Models, ParamKind};
+    let weights = dir.join("weights");
+    Models::seeded(&ParamKind::ALL, 8, 3, &cpu_device())
+        .unwrap()
+        .save_dir(&weights)
+        .unwrap();
+    format!("[estimate]\nweights = {weights:?}\n")
 }
 
 pub struct TestDaemon {

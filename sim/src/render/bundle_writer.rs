@@ -26,6 +26,7 @@
 use super::capture::{CaptureSpec, RenderOptions, Renderer, DEFAULT_MAX_DEPTH, DEFAULT_SAMPLES};
 use super::drowned::{assess, DrownAssessment};
 use super::error::SimError;
+use super::truth::TruthMaps;
 use crate::scene::rig::{rig_to_manifest_lights, DROWNED_THRESHOLD};
 use crate::scene::{EnvSource, RigPosition, Scene};
 use glam::Vec3;
@@ -136,17 +137,7 @@ fn write_bundle(scene: &Scene, opts: &SimOptions, out_dir: &Path) -> Result<Bund
                 encoding: None,
             });
         }
-        writer.write_mask(name, &truth.mask)?;
-        writer.write_truth_rgb(name, &TruthMap::Param(Param::Basecolor), &truth.basecolor)?;
-        for (param, map) in [
-            (Param::Roughness, &truth.roughness),
-            (Param::Metallic, &truth.metallic),
-            (Param::Transmission, &truth.transmission),
-            (Param::Subsurface, &truth.subsurface),
-        ] {
-            writer.write_truth_scalar(name, &TruthMap::Param(param), map)?;
-        }
-        writer.write_truth_mask(name, &truth.mask)?;
+        write_truth(&writer, name, &truth)?;
         for (spec, image) in lit.iter().zip(&illum) {
             writer.write_truth_rgb(name, &TruthMap::Illum(spec.name.clone()), image)?;
         }
@@ -193,6 +184,24 @@ fn write_bundle(scene: &Scene, opts: &SimOptions, out_dir: &Path) -> Result<Bund
         positions,
     };
     Ok(writer.finish(&manifest)?)
+}
+
+/// Writes position `name`'s object mask, its five parameter truth maps and
+/// the truth mask: what the estimator's error metrics read. Also used by
+/// the daemon's simulated rig, whose photos come from the drivers.
+pub fn write_truth(writer: &BundleWriter, name: &str, truth: &TruthMaps) -> Result<(), SimError> {
+    writer.write_mask(name, &truth.mask)?;
+    writer.write_truth_rgb(name, &TruthMap::Param(Param::Basecolor), &truth.basecolor)?;
+    for (param, map) in [
+        (Param::Roughness, &truth.roughness),
+        (Param::Metallic, &truth.metallic),
+        (Param::Transmission, &truth.transmission),
+        (Param::Subsurface, &truth.subsurface),
+    ] {
+        writer.write_truth_scalar(name, &TruthMap::Param(param), map)?;
+    }
+    writer.write_truth_mask(name, &truth.mask)?;
+    Ok(())
 }
 
 /// The contract's captures for one position.

@@ -70,7 +70,7 @@ pub mod subsurface;
 pub mod truth;
 pub mod world;
 
-pub use bundle_writer::{write_scan_bundle, SimOptions};
+pub use bundle_writer::{write_scan_bundle, write_truth, SimOptions};
 pub use capture::{
     render_capture, CaptureSpec, ObjectMaterial, PositionImages, RenderOptions, Renderer,
     DEFAULT_MAX_DEPTH, DEFAULT_SAMPLES,

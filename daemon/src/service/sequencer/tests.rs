@@ -173,6 +173,7 @@ fn without_a_turntable_the_sequencer_waits_for_the_operators_press() {
         trigger: Some(Box::new(sim_rig.trigger)),
         disk: None,
         geometry,
+        truth: None,
     };
     // The operator: turns the object by hand, then presses.
     let operator = std::thread::spawn(move || {
