@@ -18,9 +18,9 @@
 //! - [`metrics`]: MAD, MSE, PSNR against ground truth.
 //! - [`output`]: the atomic `estimate/` folder and `result.toml`.
 //!
-//! Out of scope: training loops. Feature `train` adds burn's
-//! autodiff and optimizers (and `backend::training_device`) for a trainer;
-//! the test build enables them too, for `tests/training.rs`.
+//! Training: feature `train` adds burn's autodiff and optimizers,
+//! `backend::training_device` and the [`train`](mod@train) module (the
+//! trainer of section 3.2.2 and its losses); the shipped build has neither.
 //!
 //! # Performance
 //!
@@ -38,6 +38,8 @@ pub mod pipeline;
 pub mod plan;
 pub mod pyramid;
 pub mod spec;
+#[cfg(feature = "train")]
+pub mod train;
 pub mod views;
 pub mod weights;
 

@@ -1,0 +1,136 @@
+//! `matscan train`: trains one parameter network on a folder of simulated
+//! bundles (`matscan simulate --dataset`), with a progress bar.
+//!
+//! All the work is `matscan_estimate::train` (feature `train` of
+//! matscan-estimate): this command parses arguments, picks the device and
+//! draws progress. Training resumes from `<out>/latest` when a checkpoint
+//! exists, so a killed run is continued by running the same command again.
+//! Output: `<out>/<param>.weights` (load with `--weights <out>` or copy into
+//! `estimate/weights/` to embed), `loss.csv`, `loss.png`, `checkpoint-*/`.
+//!
+//! Out of scope: data generation (`simulate`), evaluation (`estimate`).
+
+use anyhow::{bail, Context, Result};
+use indicatif::{ProgressBar, ProgressStyle};
+use matscan_estimate::backend::{training_device, CpuBackend};
+use matscan_estimate::train::{train, Event, TrainConfig};
+use matscan_estimate::ParamKind;
+use std::path::PathBuf;
+
+/// Arguments of `matscan train`.
+#[derive(clap::Args, Debug)]
+pub struct TrainArgs {
+    /// The network: roughness, transmission, subsurface, metallic, basecolor.
+    #[arg(long)]
+    pub param: String,
+    /// Folder of training bundles (searched two levels deep).
+    #[arg(long)]
+    pub data: PathBuf,
+    /// Output folder: weights, checkpoints, loss.csv, loss.png.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Total training steps (one scene each).
+    #[arg(long, default_value_t = 2000)]
+    pub steps: usize,
+    /// Feature width (default: the shipped width of the network).
+    #[arg(long)]
+    pub width: Option<usize>,
+    /// CPU backend: cpu (the default backend), flex or ndarray.
+    #[arg(long, default_value = "cpu")]
+    pub backend: String,
+    /// Folder of test bundles for the test loss.
+    #[arg(long)]
+    pub test: Option<PathBuf>,
+    /// Crop side in pixels.
+    #[arg(long, default_value_t = 64)]
+    pub crop: usize,
+    /// Most views per step.
+    #[arg(long, default_value_t = 3)]
+    pub max_views: usize,
+    /// Seed of the initial weights and of the sampling.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Checkpoint every this many steps.
+    #[arg(long, default_value_t = 100)]
+    pub checkpoint_every: usize,
+    /// Log (and evaluate the test loss) every this many steps.
+    #[arg(long, default_value_t = 50)]
+    pub log_every: usize,
+    /// Stop after this many minutes of training (weights are still written).
+    #[arg(long)]
+    pub max_minutes: Option<f64>,
+}
+
+/// Runs `matscan train`.
+pub fn run(args: &TrainArgs) -> Result<()> {
+    let Some(kind) = ParamKind::from_name(&args.param) else {
+        bail!(
+            "--param {}: expected one of roughness, transmission, subsurface, metallic, basecolor",
+            args.param
+        );
+    };
+    let device = match args.backend.as_str() {
+        "cpu" => matscan_estimate::cpu_device(),
+        "flex" => CpuBackend::Flex.device()?,
+        "ndarray" => CpuBackend::NdArray.device()?,
+        other => bail!("--backend {other}: expected cpu, flex or ndarray"),
+    };
+    let device = training_device(device);
+    let mut config = TrainConfig::new(kind, args.data.clone(), args.out.clone());
+    config.test = args.test.clone();
+    config.steps = args.steps;
+    config.width = args.width;
+    config.crop = args.crop;
+    config.max_views = args.max_views;
+    config.seed = args.seed;
+    config.checkpoint_every = args.checkpoint_every;
+    config.log_every = args.log_every;
+    config.max_seconds = args.max_minutes.map(|m| m * 60.0);
+
+    let bar = ProgressBar::new(0);
+    bar.set_style(
+        ProgressStyle::with_template(
+            "{prefix:>9} [{elapsed_precise}] {bar:40} {pos}/{len} ({eta}) {msg}",
+        )
+        .context("progress bar template")?,
+    );
+    bar.set_prefix("loading");
+    let summary = train(&config, &device, &mut |event| match event {
+        Event::Loading { done, total } => {
+            bar.set_length(total as u64);
+            bar.set_position(done as u64);
+        }
+        Event::Start {
+            step,
+            steps,
+            scenes,
+            test_scenes,
+        } => {
+            bar.set_prefix(kind.name());
+            bar.set_length(steps as u64);
+            bar.set_position(step as u64);
+            bar.println(format!(
+                "training {kind} from step {step}: {scenes} training scenes, {test_scenes} test scenes"
+            ));
+        }
+        Event::Step { step, loss, phase } => {
+            bar.set_position(step as u64);
+            bar.set_message(format!("{} loss {loss:.4}", phase.name()));
+        }
+        Event::Logged(row) => {
+            let test = row.test.map(|t| format!(", test {t:.5}")).unwrap_or_default();
+            bar.println(format!("step {}: train {:.5}{test}", row.step, row.train));
+        }
+        Event::Checkpoint(_) => {}
+    })
+    .with_context(|| format!("training the {kind} network"))?;
+    bar.finish_and_clear();
+    println!(
+        "{kind}: {} steps in {:.0} s; weights {}; loss history {}",
+        summary.steps,
+        summary.seconds,
+        summary.weights.display(),
+        args.out.join("loss.csv").display()
+    );
+    Ok(())
+}
