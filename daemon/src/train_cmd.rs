@@ -100,6 +100,9 @@ pub fn run(args: &TrainArgs) -> Result<()> {
             bar.set_length(total as u64);
             bar.set_position(done as u64);
         }
+        Event::Skipped { path, reason } => {
+            bar.println(format!("skipped {}: {reason}", path.display()));
+        }
         Event::Start {
             step,
             steps,

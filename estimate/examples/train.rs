@@ -69,6 +69,7 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
         Event::Loading { done, total } if done == total || done % 20 == 0 => {
             eprintln!("[{:.0}s] loaded {done}/{total}", start.elapsed().as_secs_f64())
         }
+        Event::Skipped { path, reason } => eprintln!("skipped {}: {reason}", path.display()),
         Event::Start { step, steps, scenes, test_scenes } => eprintln!(
             "[{:.0}s] start at step {step}/{steps}: {scenes} training scenes, {test_scenes} test scenes",
             start.elapsed().as_secs_f64()

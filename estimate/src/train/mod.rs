@@ -207,7 +207,7 @@ impl TrainConfig {
             Phase::Stems
         } else if step < self.stems() + self.single() {
             Phase::Single
-        } else if (step - self.stems() - self.single()) % 2 == 0 {
+        } else if (step - self.stems() - self.single()).is_multiple_of(2) {
             Phase::All
         } else {
             Phase::Pair
@@ -249,6 +249,13 @@ pub enum Event {
         done: usize,
         /// To read.
         total: usize,
+    },
+    /// A bundle was left out (it cannot be read, calibrated or lacks truth).
+    Skipped {
+        /// The bundle.
+        path: PathBuf,
+        /// Why.
+        reason: String,
     },
     /// Training begins (or resumes) at `step` of `steps`.
     Start {
@@ -292,7 +299,8 @@ pub struct TrainSummary {
 }
 
 /// Reads every bundle under `dir` for `kind`, two at a time; bundles
-/// without a usable view for `kind` are skipped.
+/// without a usable view for `kind`, and bundles that fail to load
+/// (reported as [`Event::Skipped`]), are left out.
 pub fn load_scenes(
     dir: &Path,
     kind: ParamKind,
@@ -319,9 +327,16 @@ pub fn load_scenes(
                 })
                 .collect()
         });
-        for scene in loaded {
-            if let Some(scene) = scene? {
-                scenes.push(scene);
+        for (scene, path) in loaded.into_iter().zip(chunk) {
+            match scene {
+                Ok(Some(scene)) => scenes.push(scene),
+                Ok(None) => {}
+                // A scene the pipeline itself would refuse (no usable
+                // position, bad light) teaches nothing: skip it, say so.
+                Err(e) => progress(Event::Skipped {
+                    path: path.clone(),
+                    reason: e.to_string(),
+                }),
             }
         }
         progress(Event::Loading {
