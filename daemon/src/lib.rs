@@ -4,7 +4,12 @@
 //!
 //! - [`service`]: the capture sequencer, the control socket, systemd
 //!   notification and the estimation worker (`matscan daemon`);
-//! - [`client`]: `matscan capture-now` and `matscan status`.
+//! - [`client`]: `matscan capture-now` and `matscan status`;
+//! - [`procstat`]: file descriptors, threads and memory of this process
+//!   (the soak harness);
+//! - [`soak`]: many captures in a row, with resources sampled.
 
 pub mod client;
+pub mod procstat;
 pub mod service;
+pub mod soak;

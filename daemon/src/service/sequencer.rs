@@ -264,7 +264,7 @@ impl Rig {
         let manifest = Manifest {
             units: "m".into(),
             name: self.geometry.name.clone(),
-            created: rfc3339_now(),
+            created: matscan_scan::time::rfc3339_now(),
             camera: self.geometry.intrinsics,
             positions,
         };
@@ -501,36 +501,6 @@ pub fn mean_abs_difference(a: &RgbRaster, b: &RgbRaster) -> f32 {
     } else {
         0.0
     }
-}
-
-/// Now as RFC 3339 UTC (`2026-11-23T08:40:00Z`), without a date crate.
-pub fn rfc3339_now() -> String {
-    let secs = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map_or(0, |d| d.as_secs());
-    rfc3339(secs)
-}
-
-/// `secs` since the Unix epoch as RFC 3339 UTC (civil-from-days, Howard
-/// Hinnant's algorithm).
-pub fn rfc3339(secs: u64) -> String {
-    let days = (secs / 86_400) as i64;
-    let rem = secs % 86_400;
-    let z = days + 719_468;
-    let era = z.div_euclid(146_097);
-    let doe = z.rem_euclid(146_097);
-    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
-    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
-    let mp = (5 * doy + 2) / 153;
-    let day = doy - (153 * mp + 2) / 5 + 1;
-    let month = if mp < 10 { mp + 3 } else { mp - 9 };
-    let year = yoe + era * 400 + i64::from(month <= 2);
-    format!(
-        "{year:04}-{month:02}-{day:02}T{:02}:{:02}:{:02}Z",
-        rem / 3600,
-        rem % 3600 / 60,
-        rem % 60
-    )
 }
 
 #[cfg(test)]
