@@ -151,6 +151,7 @@ mod trainer {
         assert_eq!(summary.steps, 60);
         let trained = weights::load_file(&summary.weights, kind, &device).expect("weights load");
         let after = evaluate(&trained, &scene, 2, &device).expect("evaluates");
+        eprintln!("loss on the scene: {before} -> {after}");
         assert!(
             after < 0.7 * before,
             "the loss did not fall enough: {before} -> {after}"
