@@ -16,7 +16,8 @@
 //!   gloss only add scatter (ranks keep highlights from dominating; on a
 //!   white diffuse object a correct calibration scores above 0.9, but a
 //!   strongly textured or metallic object can score as low as 0.1 with a
-//!   correct calibration, so the default threshold is 0: what it catches
+//!   correct calibration, and a subsurface-heavy one slightly below 0, so
+//!   the default threshold is -0.15: what it catches
 //!   is a light on the wrong side, the typical frame mix-up); a light in the wrong place moves the predicted
 //!   highlights and shadows and the correlation drops.
 
@@ -43,11 +44,14 @@ impl Default for CheckOptions {
         Self {
             min_iou: 0.9,
             // Measured: a correct calibration scores 0.9 and more on a white
-            // diffuse object but only 0.09 to 0.47 on textured, partly
-            // metallic simulated objects, while a light put on the wrong
-            // side (the frame mix-ups this check exists for) scores -0.3.
-            // Only a non-positive score is a problem by default.
-            min_correlation: 0.0,
+            // diffuse object, 0.09 to 0.47 on textured, partly metallic
+            // simulated objects, and down to -0.045 on a glossy,
+            // subsurface-heavy one (the demo's seed-1 leaves: scattered
+            // light does not follow the diffuse prediction), while a light
+            // put on the wrong side (the frame mix-ups this check exists
+            // for) scores -0.3. So only a clearly negative score is a
+            // problem by default.
+            min_correlation: -0.15,
             panel_threshold: 0.5,
         }
     }

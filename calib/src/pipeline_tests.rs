@@ -149,6 +149,14 @@ fn check_passes_a_true_calibration_and_catches_a_misplaced_light() {
     }
     let cal = calibrate(&wrong, &caster, &scan, &CalibOptions::default()).unwrap();
     let report = check(&wrong, &cal, &scan, &CheckOptions::default()).unwrap();
+    let flash1: Vec<f64> = report
+        .positions
+        .iter()
+        .flat_map(|p| &p.lights)
+        .filter(|l| l.light == "flash1")
+        .filter_map(|l| l.correlation)
+        .collect();
+    assert!(flash1.iter().all(|c| *c < -0.15), "{flash1:?}");
     assert!(!report.passed());
     assert!(
         report.problems.iter().all(|p| p.contains("flash1")),
