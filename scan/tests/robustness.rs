@@ -67,6 +67,10 @@ fn edit_strategy() -> impl Strategy<Value = Edit> {
 }
 
 fn apply(text: &str, edit: &Edit) -> String {
+    // An earlier edit may have emptied the text: nothing left to edit.
+    if text.is_empty() {
+        return String::new();
+    }
     let mut lines: Vec<&str> = text.lines().collect();
     let mut bytes = text.as_bytes().to_vec();
     let n = lines.len();
