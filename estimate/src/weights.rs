@@ -22,9 +22,10 @@
 //! `str` is a u16 byte length and UTF-8 bytes. Tensors appear in the order
 //! of the network's convolutions (`input_stem.reduce.weight`, ...).
 //!
-//! Trained weights are embedded into the binary with [`EMBEDDED`]; this
-//! build ships none yet, so [`WeightSource::Embedded`] reports that clearly
-//! and callers pass a file.
+//! Trained weights (`estimate/weights/<param>.weights`, see
+//! `estimate/MODEL_CARD.md`) are embedded into the binary with
+//! [`EMBEDDED`]; a network without embedded weights makes
+//! [`WeightSource::Embedded`] report that clearly, and callers pass a file.
 //!
 //! Out of scope: training, and the networks themselves.
 
@@ -46,9 +47,18 @@ pub const FORMAT_VERSION: u32 = 1;
 /// Version of the network layout (blocks, their order, linear output stem).
 pub const ARCHITECTURE: u32 = 1;
 
-/// Weight files compiled into the binary, by network. Empty until trained
-/// weights exist.
-pub const EMBEDDED: &[(ParamKind, &[u8])] = &[];
+/// Weight files compiled into the binary, by network: the trained weights
+/// of `estimate/weights/` (how they were made: `estimate/MODEL_CARD.md`).
+pub const EMBEDDED: &[(ParamKind, &[u8])] = &[
+    (
+        ParamKind::Roughness,
+        include_bytes!("../weights/roughness.weights"),
+    ),
+    (
+        ParamKind::Basecolor,
+        include_bytes!("../weights/basecolor.weights"),
+    ),
+];
 
 /// Where a network's weights come from.
 #[derive(Clone, Debug, PartialEq, Eq)]
