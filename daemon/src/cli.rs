@@ -34,6 +34,10 @@ pub enum Command {
     /// and PSNR per parameter for 1, 3 and all views, beside a trivial
     /// baseline and the thesis's figures.
     Eval(crate::eval_cmd::EvalArgs),
+    /// Train one parameter network on simulated bundles (resumable after a
+    /// kill: run the same command again); writes weights, checkpoints,
+    /// loss.csv and loss.png.
+    Train(crate::train_cmd::TrainArgs),
     /// Run the capture service (systemd Type=notify; see
     /// docs/daemon-protocol.md).
     Daemon(matscan::service::DaemonArgs),
@@ -170,6 +174,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Demo(a) => crate::demo::run(&a),
         Command::Estimate(a) => crate::estimate_cmd::run(&a),
         Command::Eval(a) => crate::eval_cmd::run(&a),
+        Command::Train(a) => crate::train_cmd::run(&a),
         Command::Daemon(a) => {
             matscan::service::run_daemon(&a).context("matscan daemon")?;
             Ok(())

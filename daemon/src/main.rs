@@ -19,6 +19,7 @@ mod eval_cmd;
 mod font;
 mod sheet;
 mod simulate;
+mod train_cmd;
 
 use clap::Parser;
 

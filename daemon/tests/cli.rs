@@ -228,3 +228,57 @@ fn a_malformed_manifest_is_reported_with_file_and_key() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("scan.toml") && err.contains("fx"), "{err}");
 }
+
+#[test]
+fn train_writes_weights_a_loss_history_and_a_plot() {
+    let tmp = tempfile::tempdir().unwrap();
+    let data = tmp.path().join("data");
+    let o = matscan(&[
+        "simulate",
+        "--dataset",
+        data.to_str().unwrap(),
+        "--count",
+        "1",
+        "--size",
+        "24",
+        "--positions",
+        "1",
+        "--samples",
+        "1",
+        "--geometry",
+        "sphere",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let out = tmp.path().join("run");
+    let o = matscan(&[
+        "train",
+        "--param",
+        "metallic",
+        "--data",
+        data.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--steps",
+        "3",
+        "--width",
+        "8",
+        "--crop",
+        "16",
+        "--log-every",
+        "1",
+    ]);
+    assert!(
+        o.status.success(),
+        "{}{}",
+        stdout(&o),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(out.join("metallic.weights").is_file());
+    let csv = std::fs::read_to_string(out.join("loss.csv")).unwrap();
+    assert!(csv.lines().count() >= 3, "{csv}");
+    assert!(out.join("loss.png").is_file());
+    // An unknown network is named.
+    let o = matscan(&["train", "--param", "sheen", "--data", "x", "--out", "y"]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--param sheen"));
+}
