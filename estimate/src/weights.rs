@@ -55,6 +55,18 @@ pub const EMBEDDED: &[(ParamKind, &[u8])] = &[
         include_bytes!("../weights/roughness.weights"),
     ),
     (
+        ParamKind::Transmission,
+        include_bytes!("../weights/transmission.weights"),
+    ),
+    (
+        ParamKind::Subsurface,
+        include_bytes!("../weights/subsurface.weights"),
+    ),
+    (
+        ParamKind::Metallic,
+        include_bytes!("../weights/metallic.weights"),
+    ),
+    (
         ParamKind::Basecolor,
         include_bytes!("../weights/basecolor.weights"),
     ),
