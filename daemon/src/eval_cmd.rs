@@ -156,6 +156,19 @@ fn mean_truth(scans: &[PathBuf]) -> Result<BTreeMap<ParamKind, f64>> {
         .collect())
 }
 
+/// The usable views of `scan` (`position/capture`), reference position
+/// first; `None` when none is usable.
+fn all_views(scan: &Path) -> Result<Option<Vec<String>>> {
+    let bundle = Bundle::open(scan)?;
+    let calibration = calibrate_bundle(&bundle, &CalibOptions::default())
+        .with_context(|| format!("calibrating {}", scan.display()))?;
+    Ok(
+        select_views(&bundle.manifest, &calibration, &ViewFilter::default())
+            .ok()
+            .map(|set| set.views.iter().map(|v| v.to_string()).collect()),
+    )
+}
+
 /// Sums of metrics for averaging.
 #[derive(Default, Clone, Copy)]
 struct Sum {
@@ -215,29 +228,29 @@ pub fn run(args: &EvalArgs) -> Result<()> {
             .unwrap_or(&args.data)
             .display()
     );
+    // Every scan's usable views in order, calibrated once for all
+    // configurations (`None` where the estimate itself will report why it
+    // has none).
+    let views_of: Vec<Option<Vec<String>>> = if args.views.iter().any(|&c| c > 0) {
+        scans
+            .iter()
+            .map(|scan| all_views(scan))
+            .collect::<Result<_>>()?
+    } else {
+        vec![None; scans.len()]
+    };
     for &count in &args.views {
         let mut est: BTreeMap<ParamKind, Sum> = BTreeMap::new();
         let mut base: BTreeMap<ParamKind, Sum> = BTreeMap::new();
         let mut seconds = Vec::new();
         let mut failures = Vec::new();
         for (i, scan) in scans.iter().enumerate() {
-            let filter = if count == 0 {
-                ViewFilter::default()
-            } else {
-                let bundle = Bundle::open(scan)?;
-                let calibration = calibrate_bundle(&bundle, &CalibOptions::default())
-                    .with_context(|| format!("calibrating {}", scan.display()))?;
-                let set = select_views(&bundle.manifest, &calibration, &ViewFilter::default())
-                    .with_context(|| format!("selecting views of {}", scan.display()))?;
-                ViewFilter {
+            let filter = match (count, &views_of[i]) {
+                (0, _) | (_, None) => ViewFilter::default(),
+                (_, Some(all)) => ViewFilter {
                     positions: Vec::new(),
-                    views: set
-                        .views
-                        .iter()
-                        .take(count)
-                        .map(|v| v.to_string())
-                        .collect(),
-                }
+                    views: all.iter().take(count).cloned().collect(),
+                },
             };
             let options = EstimateOptions {
                 out: Some(scratch.join(format!("{count}-{i}"))),
