@@ -1,16 +1,40 @@
 //! Texture baking: turns the per-position parameter maps of a scan (the
 //! estimate's `estimate/<position>/<param>.exr`, or a simulated scan's
-//! truth maps) into UV textures of the object's mesh, and writes them in the
-//! layout `estimate/texture/` ([`textures`]).
+//! truth maps) into UV textures of the object's mesh, writes them in the
+//! layout `estimate/texture/` ([`textures`]) and exports the mesh with
+//! that material as glTF 2.0 ([`gltf_export`]).
 //!
-//! Boundaries: reads bundles and maps through `matscan-scan`; no
-//! estimation, no rendering. The glTF export lives beside the baker
-//! so that the daemon's `matscan export` is a thin edge.
+//! Entry points: [`bake_scan`] (a scan and its estimate folder),
+//! [`bake_truth`] and [`bake_maps`] (any per-position maps, baked the same
+//! way), [`write_textures`] / [`read_textures`] (the file layout),
+//! [`gltf_export::export_gltf`].
+//!
+//! Boundaries: reads bundles and maps through `matscan-scan`, illumination
+//! through `matscan-calib`; no estimation, no rendering. The glTF export
+//! lives beside the baker so that the daemon's `matscan export` is a thin
+//! edge.
+//!
+//! Crate choices: `rayon` (one texel row per task); `image` (PNG only) for
+//! the 16-bit textures, as the scan crate does.
 
+pub mod atlas;
+pub mod bake;
+pub mod distance;
 pub mod error;
+pub mod fuse;
+pub mod maps;
+pub mod pushpull;
+mod sampling;
 pub mod textures;
+mod views;
 
+pub use bake::{
+    bake_maps, bake_scan, bake_truth, read_estimate_maps, read_truth_maps, BakeOptions,
+    DEFAULT_SIZE,
+};
 pub use error::BakeError;
+pub use fuse::FuseOptions;
+pub use maps::{MapValues, ParamMap, PositionMaps};
 pub use textures::{
     read_textures, texel_uv, texture_dir, texture_path, write_textures, BakedTextures,
 };
