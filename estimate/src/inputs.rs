@@ -125,6 +125,37 @@ impl ViewPlanes {
     pub fn has_checker(&self) -> bool {
         self.checker.is_some()
     }
+
+    /// The lit capture, in the reference image, ambient exposure units.
+    pub fn lit(&self) -> &[[f32; 3]] {
+        &self.lit
+    }
+
+    /// The ambient capture, in the reference image.
+    pub fn ambient(&self) -> &[[f32; 3]] {
+        &self.ambient
+    }
+
+    /// N·L of the view's light (warped into the reference image).
+    pub fn cos_nl(&self) -> &[f32] {
+        &self.cos_nl
+    }
+
+    /// N·V of the view's camera.
+    pub fn cos_nv(&self) -> &[f32] {
+        &self.cos_nv
+    }
+
+    /// Eq. 3.4's azimuth cosine between view and light.
+    pub fn cos_vl(&self) -> &[f32] {
+        &self.cos_vl
+    }
+
+    /// The white reference's response to the light alone (lit minus
+    /// ambient), ambient exposure units; `[1; 3]` without a reference.
+    pub fn white_light(&self) -> [f32; 3] {
+        [0, 1, 2].map(|c| self.white_lit[c] - self.white_ambient[c])
+    }
 }
 
 /// Maps other networks provide, each in `[0, 1]` per reference pixel

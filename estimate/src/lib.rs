@@ -17,6 +17,8 @@
 //! - [`pipeline`]: runs it all ([`estimate`]).
 //! - [`metrics`]: MAD, MSE, PSNR against ground truth.
 //! - [`output`]: the atomic `estimate/` folder and `result.toml`.
+//! - [`refine`]: optional per-pixel analysis-by-synthesis fit after the
+//!   networks (basecolor, roughness, metallic) with confidence maps.
 //!
 //! Training: feature `train` adds burn's autodiff and optimizers,
 //! `backend::training_device` and the [`train`](mod@train) module (the
@@ -37,6 +39,7 @@ pub mod output;
 pub mod pipeline;
 pub mod plan;
 pub mod pyramid;
+pub mod refine;
 pub mod spec;
 #[cfg(feature = "train")]
 pub mod train;

@@ -1,0 +1,198 @@
+//! A scan's views as per-pixel [`Observation`]s: the lit-minus-ambient
+//! photo, the local directions from the calibration cosines, the trust of
+//! `loss::view_weight`, and the light arriving at the pixel, from one of
+//! two sources ([`IlluminationSource`]):
+//!
+//! - calibration: `exposure · I · colour · pattern / (π d²)` from the
+//!   manifest's light (intensity, colour, the capture's uniform pattern
+//!   level), the calibrated distance and shadow mask, warped into the
+//!   reference image; exact for direct light, blind to interreflections;
+//! - the roughness network's per-view illumination (luma of the white
+//!   diffuse render, interreflections included but blurred and clamped to
+//!   [0, 1]), tinted by the white reference's colour and divided by the
+//!   white diffuse BSDF's `π f cos` to undo its cosine.
+//!
+//! Which is better was measured on the held-out set (see `refine`'s doc);
+//! a view the chosen source cannot light (no intensity in the manifest, a
+//! checkerboard pattern) falls back to the network, or is left out.
+
+use super::loss::{view_weight, ViewEvidence};
+use super::model::{directions, white_response, Observation};
+use super::RefineError;
+use crate::inputs::{SceneInputs, ViewPlanes};
+use matscan_calib::photos::luma;
+use matscan_calib::ScanCalibration;
+use matscan_scan::{Bundle, Pattern};
+use serde::{Deserialize, Serialize};
+
+/// Where the light arriving at each pixel comes from.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum IlluminationSource {
+    /// Manifest light, calibrated distance and shadow mask.
+    #[default]
+    Calibration,
+    /// The roughness network's per-view illumination estimate.
+    Network,
+}
+
+/// One view's light per reference pixel.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ViewLighting {
+    /// White-Lambertian radiance at normal incidence, RGB, photo units.
+    pub light: Vec<[f32; 3]>,
+    /// The light's share of the pixel (1 lit, 0 shadow).
+    pub lit: Vec<f32>,
+    /// Photo value at or above which a channel counts as clipped, in the
+    /// view's (ambient exposure) units.
+    pub clip: f32,
+}
+
+/// The lighting of `planes` from calibration; `None` when the manifest
+/// lacks what it needs (no intensity, a patterned capture).
+pub fn calibrated_lighting(
+    bundle: &Bundle,
+    calibration: &ScanCalibration,
+    reference: &str,
+    planes: &ViewPlanes,
+    saturation: f32,
+) -> Result<Option<ViewLighting>, RefineError> {
+    let view = &planes.view;
+    let position = bundle.position(&view.position)?;
+    let capture = bundle.capture(&view.position, &view.capture)?;
+    let Some(light) = position.lights.iter().find(|l| l.name == view.light) else {
+        return Ok(None);
+    };
+    let Some(intensity) = light.intensity.filter(|i| i.is_finite() && *i >= 0.0) else {
+        return Ok(None);
+    };
+    let level = match &capture.pattern {
+        None => 1.0,
+        Some(Pattern::Uniform { level }) if level.is_finite() => level.clamp(0.0, 1.0),
+        Some(_) => return Ok(None),
+    };
+    let ambient_exposure = position
+        .ambient()
+        .map_or(capture.exposure_s, |c| c.exposure_s);
+    let exposure = if ambient_exposure.is_finite() && ambient_exposure > 0.0 {
+        ambient_exposure
+    } else {
+        1.0
+    };
+    let maps = calibration
+        .position(&view.position)
+        .and_then(|p| p.maps.light(&view.light))
+        .ok_or_else(|| RefineError::MissingMaps(view.to_string()))?;
+    let lit_map = maps.lit.map(|&l| if l { 1.0f32 } else { 0.0 });
+    let (distance, lit) = if view.position == reference {
+        (maps.distance.data.clone(), lit_map.data)
+    } else {
+        let c = calibration
+            .correspondence(reference, &view.position)
+            .ok_or_else(|| RefineError::MissingMaps(view.to_string()))?;
+        (
+            c.warp_scalar(&maps.distance, "light distance")?.data,
+            c.warp_scalar(&lit_map, "light shadow mask")?.data,
+        )
+    };
+    let k = exposure * intensity * level / std::f64::consts::PI;
+    let light = distance
+        .iter()
+        .map(|&d| {
+            let d = f64::from(d);
+            if d.is_finite() && d > 1e-6 {
+                light.color.map(|c| (k * c / (d * d)) as f32)
+            } else {
+                [0.0; 3]
+            }
+        })
+        .collect();
+    Ok(Some(ViewLighting {
+        light,
+        lit,
+        clip: clip_level(capture.exposure_s, ambient_exposure, saturation),
+    }))
+}
+
+/// The lighting of `planes` from the roughness network's illumination
+/// (values in [0, 1], one per reference pixel).
+pub fn network_lighting(planes: &ViewPlanes, illumination: &[f32], clip: f32) -> ViewLighting {
+    let white = planes.white_light();
+    let y = luma(white);
+    let tint = if y.is_finite() && y > 1e-6 {
+        white.map(|c| (c / y).max(0.0))
+    } else {
+        [1.0; 3]
+    };
+    let n = planes.mask.len();
+    let light = (0..n)
+        .map(|i| {
+            let (wo, wi) = directions(planes.cos_nv()[i], planes.cos_nl()[i], planes.cos_vl()[i]);
+            let response = white_response(wo, wi);
+            let e = illumination.get(i).copied().unwrap_or(0.0);
+            if response > 0.05 && e.is_finite() {
+                tint.map(|t| t * e.max(0.0) / response)
+            } else {
+                [0.0; 3]
+            }
+        })
+        .collect();
+    ViewLighting {
+        light,
+        lit: vec![1.0; n],
+        clip,
+    }
+}
+
+/// A clipping level in ambient exposure units for a photo taken at
+/// `exposure` and scaled to `ambient_exposure` (as `inputs` does).
+pub fn clip_level(exposure: f64, ambient_exposure: f64, saturation: f32) -> f32 {
+    let k = if exposure > 0.0 && ambient_exposure.is_finite() && exposure.is_finite() {
+        (ambient_exposure / exposure) as f32
+    } else {
+        1.0
+    };
+    saturation * k
+}
+
+/// Every view's observation of reference pixel `i` (views whose lighting
+/// is `None` are left out).
+pub fn observations(
+    inputs: &SceneInputs,
+    lighting: &[Option<ViewLighting>],
+    i: usize,
+) -> Vec<Observation> {
+    inputs
+        .views
+        .iter()
+        .zip(lighting)
+        .filter_map(|(planes, lighting)| {
+            let lighting = lighting.as_ref()?;
+            let lit = planes.lit()[i];
+            let ambient = planes.ambient()[i];
+            let evidence = ViewEvidence {
+                visible: planes.mask[i] > 0.5,
+                lit: lighting.lit[i],
+                cos_nl: planes.cos_nl()[i],
+                cos_nv: planes.cos_nv()[i],
+                saturated: lit.iter().any(|&v| !(v < lighting.clip)),
+            };
+            let (wo, wi) = directions(planes.cos_nv()[i], planes.cos_nl()[i], planes.cos_vl()[i]);
+            let observed = [0, 1, 2].map(|c| {
+                let d = lit[c] - ambient[c];
+                if d.is_finite() {
+                    d
+                } else {
+                    0.0
+                }
+            });
+            Some(Observation {
+                wo,
+                wi,
+                light: lighting.light[i],
+                observed,
+                weight: view_weight(&evidence),
+            })
+        })
+        .collect()
+}
