@@ -7,9 +7,14 @@
 //! - [`client`]: `matscan capture-now` and `matscan status`;
 //! - [`procstat`]: file descriptors, threads and memory of this process
 //!   (the soak harness);
-//! - [`soak`]: many captures in a row, with resources sampled.
+//! - [`soak`]: many captures in a row, with resources sampled;
+//! - [`rerender`]: the scanned object with UV-textured material under
+//!   novel lights and views (`matscan render`, `eval --textures`);
+//! - [`image_metrics`]: PSNR and SSIM of two renders.
 
 pub mod client;
+pub mod image_metrics;
 pub mod procstat;
+pub mod rerender;
 pub mod service;
 pub mod soak;
