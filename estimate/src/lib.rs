@@ -50,7 +50,7 @@ pub use backend::{cpu_device, CpuBackend};
 pub use models::{ModelSource, Models, ModelsError};
 pub use network::{ConfigError, InputError, NetConfig, NetOutput, ParamNet};
 pub use output::{ResultFile, Status};
-pub use pipeline::{estimate, EstimateError, EstimateOptions, EstimateReport};
+pub use pipeline::{estimate, EstimateError, EstimateOptions, EstimateReport, References};
 pub use plan::{Given, PlanError};
 pub use spec::{InputChannel, OutputChannel, ParamKind};
 pub use views::ViewFilter;

@@ -94,8 +94,12 @@ pub struct ResultFile {
     pub format: String,
     /// The scan folder.
     pub scan: String,
-    /// The position whose camera image the maps are in.
+    /// The position whose camera image the maps (and the metrics) are in.
     pub reference_position: String,
+    /// Every position with maps in `<position>/`, the reference first (one
+    /// entry unless the estimate ran with every position as reference).
+    #[serde(default)]
+    pub positions: Vec<String>,
     /// The views used, `position/capture`.
     pub views: Vec<String>,
     /// Positions left out, with the reason.
@@ -154,12 +158,24 @@ fn io(path: &Path) -> impl FnOnce(std::io::Error) -> OutputError + '_ {
     }
 }
 
-/// Writes the maps of `reference` and `result` as the folder `target`,
-/// atomically, replacing an older one.
+/// The maps of one position, in that position's camera image.
+#[derive(Clone, Debug, Default)]
+pub struct PositionMaps {
+    /// The position's name (the folder name).
+    pub position: String,
+    /// One map per estimated or given parameter.
+    pub maps: BTreeMap<ParamKind, ParamMap>,
+    /// Further single-channel maps by file stem (e.g. `roughness_confidence`),
+    /// written as `<stem>.exr` and `<stem>.png`.
+    pub extra: BTreeMap<String, ScalarRaster>,
+}
+
+/// Writes the maps of every position and `result` as the folder `target`,
+/// atomically, replacing an older one (and with it any textures baked from
+/// the older maps).
 pub fn write_estimate(
     target: &Path,
-    reference: &str,
-    maps: &BTreeMap<ParamKind, ParamMap>,
+    positions: &[PositionMaps],
     result: &ResultFile,
 ) -> Result<(), OutputError> {
     let name = target
@@ -177,20 +193,26 @@ pub fn write_estimate(
         std::fs::remove_dir_all(&staged).map_err(io(&staged))?;
     }
     let pending = PendingDir::create(&staged)?;
-    let dir = pending.path().join(reference);
-    std::fs::create_dir_all(&dir).map_err(io(&dir))?;
-    for (kind, map) in maps {
-        let exr = dir.join(format!("{}.exr", kind.name()));
-        let png = dir.join(format!("{}.png", kind.name()));
-        match map {
-            ParamMap::Scalar(r) => {
-                write_scalar_exr(&exr, r, Precision::Float)?;
-                write_scalar_preview_png(&png, r)?;
+    for position in positions {
+        let dir = pending.path().join(&position.position);
+        std::fs::create_dir_all(&dir).map_err(io(&dir))?;
+        for (kind, map) in &position.maps {
+            let exr = dir.join(format!("{}.exr", kind.name()));
+            let png = dir.join(format!("{}.png", kind.name()));
+            match map {
+                ParamMap::Scalar(r) => {
+                    write_scalar_exr(&exr, r, Precision::Float)?;
+                    write_scalar_preview_png(&png, r)?;
+                }
+                ParamMap::Rgb(r) => {
+                    write_rgb_exr(&exr, r, Precision::Float)?;
+                    write_preview_png(&png, r)?;
+                }
             }
-            ParamMap::Rgb(r) => {
-                write_rgb_exr(&exr, r, Precision::Float)?;
-                write_preview_png(&png, r)?;
-            }
+        }
+        for (stem, map) in &position.extra {
+            write_scalar_exr(&dir.join(format!("{stem}.exr")), map, Precision::Float)?;
+            write_scalar_preview_png(&dir.join(format!("{stem}.png")), map)?;
         }
     }
     let text = toml::to_string(result)?;
@@ -251,6 +273,7 @@ mod tests {
             format: RESULT_FORMAT.to_string(),
             scan: "scan".to_string(),
             reference_position: "p0".to_string(),
+            positions: vec!["p0".to_string()],
             views: vec!["p0/flash0".to_string()],
             left_out: vec![],
             warnings: vec![],
@@ -271,7 +294,16 @@ mod tests {
             ParamMap::Scalar(ScalarRaster::filled(4, 3, 0.25)),
         );
         std::fs::create_dir_all(target.join("old")).unwrap();
-        write_estimate(&target, "p0", &maps, &result()).unwrap();
+        let positions = [PositionMaps {
+            position: "p0".to_string(),
+            maps,
+            extra: BTreeMap::from([(
+                "roughness_confidence".to_string(),
+                ScalarRaster::filled(4, 3, 0.5),
+            )]),
+        }];
+        write_estimate(&target, &positions, &result()).unwrap();
+        assert!(target.join("p0/roughness_confidence.exr").is_file());
         assert!(!target.join("old").exists());
         assert!(target.join("p0/roughness.exr").is_file());
         assert!(target.join("p0/roughness.png").is_file());

@@ -22,7 +22,8 @@ use crate::metrics::error_metrics;
 use crate::models::{ModelSource, Models, ModelsError};
 use crate::network::InputError;
 use crate::output::{
-    write_estimate, OutputError, ParamMap, ParamResult, ResultFile, Status, Timings, RESULT_FORMAT,
+    write_estimate, OutputError, ParamMap, ParamResult, PositionMaps, ResultFile, Status, Timings,
+    RESULT_FORMAT,
 };
 use crate::plan::{default_value, Availability, Decision, Given, Plan, PlanError};
 use crate::spec::ParamKind;
@@ -49,6 +50,20 @@ pub struct EstimateOptions {
     pub filter: ViewFilter,
     /// Calibration settings.
     pub calib: CalibOptions,
+    /// Which positions get maps.
+    pub references: References,
+}
+
+/// Which positions' camera images get maps.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum References {
+    /// Only the reference position (the first usable one).
+    #[default]
+    First,
+    /// Every usable position, each in turn as reference with the same views:
+    /// what texture baking needs to cover the whole object. Costs one pass
+    /// of the networks per position.
+    Every,
 }
 
 /// An estimate that could not be made.
@@ -130,6 +145,8 @@ struct Values {
     scalar: BTreeMap<ParamKind, Vec<f32>>,
     basecolor: Option<Vec<[f32; 3]>>,
     illumination: Option<Vec<Vec<f32>>>,
+    /// Seconds spent reading given maps.
+    given_s: f64,
 }
 
 /// Estimates the scan at `scan` and writes the result.
@@ -162,34 +179,59 @@ pub fn estimate(
     let plan = Plan::new(options.only.as_deref(), &options.given, available)?;
 
     let t = Instant::now();
-    let mut values = Values::default();
-    for kind in ParamKind::ALL {
-        match plan.decision(kind) {
-            Decision::Given(given) => set_given(&mut values, kind, given, &inputs)?,
-            Decision::Skip { .. } => set_constant(&mut values, kind, default_value(kind), &inputs),
-            Decision::Estimate => {}
-        }
-    }
-    timings.load_s += t.elapsed().as_secs_f64();
-
-    let t = Instant::now();
     let kinds: Vec<ParamKind> = plan.networks().collect();
     let models = models.resolve(&kinds, device)?;
     timings.weights_s = t.elapsed().as_secs_f64();
 
-    let mut runs: BTreeMap<ParamKind, (usize, f64)> = BTreeMap::new();
-    for stage in plan.stages() {
-        let results = run_stage(stage, &models, &inputs, &values, device)?;
-        for run in results {
-            runs.insert(run.kind, (run.views, run.seconds));
-            store(&mut values, &plan, run, &inputs);
-        }
-    }
-
+    let (values, mut runs) = run_networks(&plan, &models, &inputs, device)?;
+    timings.load_s += values.given_s;
     let maps = written_maps(&plan, &values, &inputs);
     let t = Instant::now();
     let metrics = metrics(&bundle, &set.reference, &maps, &inputs)?;
     timings.metrics_s = t.elapsed().as_secs_f64();
+    let mut warnings = inputs.warnings.clone();
+    let mut positions = vec![PositionMaps {
+        position: set.reference.clone(),
+        maps,
+        extra: BTreeMap::new(),
+    }];
+    if options.references == References::Every {
+        let given_map = options
+            .given
+            .iter()
+            .find(|(_, g)| matches!(g, Given::Map(_)));
+        for name in set.usable.iter().filter(|p| **p != set.reference) {
+            if let Some((kind, _)) = given_map {
+                warnings.push(format!(
+                    "position {name} has no maps: the given {kind} map is in the camera \
+                     image of {}",
+                    set.reference
+                ));
+                continue;
+            }
+            let Some(other) = set.with_reference(name) else {
+                continue;
+            };
+            let t = Instant::now();
+            let inputs = SceneInputs::assemble(&bundle, &calibration, &other)?;
+            timings.inputs_s += t.elapsed().as_secs_f64();
+            for w in &inputs.warnings {
+                if !warnings.contains(w) {
+                    warnings.push(w.clone());
+                }
+            }
+            let (values, more) = run_networks(&plan, &models, &inputs, device)?;
+            timings.load_s += values.given_s;
+            for (kind, (_, seconds)) in more {
+                runs.entry(kind).or_insert((0, 0.0)).1 += seconds;
+            }
+            positions.push(PositionMaps {
+                position: name.clone(),
+                maps: written_maps(&plan, &values, &inputs),
+                extra: BTreeMap::new(),
+            });
+        }
+    }
     timings.networks = runs
         .iter()
         .map(|(k, (_, s))| (k.name().to_string(), *s))
@@ -231,9 +273,10 @@ pub fn estimate(
         format: RESULT_FORMAT.to_string(),
         scan: scan.display().to_string(),
         reference_position: set.reference.clone(),
+        positions: positions.iter().map(|p| p.position.clone()).collect(),
         views: set.views.iter().map(|v| v.to_string()).collect(),
         left_out: set.left_out.clone(),
-        warnings: inputs.warnings.clone(),
+        warnings,
         params,
         models: kinds
             .iter()
@@ -243,8 +286,38 @@ pub fn estimate(
         metrics,
     };
     let out = options.out.clone().unwrap_or_else(|| scan.join("estimate"));
-    write_estimate(&out, &set.reference, &maps, &result)?;
+    write_estimate(&out, &positions, &result)?;
     Ok(EstimateReport { out, result })
+}
+
+/// Sets the given and skipped parameters and runs the networks stage by
+/// stage in the image of `inputs.reference`; the seconds each network took
+/// and the views it fused, by network.
+fn run_networks(
+    plan: &Plan,
+    models: &Models,
+    inputs: &SceneInputs,
+    device: &Device,
+) -> Result<(Values, BTreeMap<ParamKind, (usize, f64)>), EstimateError> {
+    let t = Instant::now();
+    let mut values = Values::default();
+    for kind in ParamKind::ALL {
+        match plan.decision(kind) {
+            Decision::Given(g) => set_given(&mut values, kind, g, inputs)?,
+            Decision::Skip { .. } => set_constant(&mut values, kind, default_value(kind), inputs),
+            Decision::Estimate => {}
+        }
+    }
+    values.given_s = t.elapsed().as_secs_f64();
+    let mut runs = BTreeMap::new();
+    for stage in plan.stages() {
+        let results = run_stage(stage, models, inputs, &values, device)?;
+        for run in results {
+            runs.insert(run.kind, (run.views, run.seconds));
+            store(&mut values, plan, run, inputs);
+        }
+    }
+    Ok((values, runs))
 }
 
 /// The views `kind`'s network fuses.

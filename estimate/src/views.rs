@@ -5,6 +5,8 @@
 //!
 //! The reference is the first selected position (in manifest order) whose
 //! light is good, so it never depends on the order the user lists views in.
+//! [`ViewSet::with_reference`] moves the same views into another usable
+//! position's image (the pipeline's "every position as reference").
 //! View order follows `--views` when given (manifest order otherwise); the
 //! networks' max-fusion makes the fused maps independent of it.
 //!
@@ -50,6 +52,20 @@ pub struct ViewSet {
     pub views: Vec<View>,
     /// Why selected positions were left out (bad light).
     pub left_out: Vec<String>,
+    /// Every selected position whose light is good, in manifest order (the
+    /// positions that can serve as reference).
+    pub usable: Vec<String>,
+}
+
+impl ViewSet {
+    /// The same views estimated in the camera image of `position`, when it
+    /// is usable.
+    pub fn with_reference(&self, position: &str) -> Option<ViewSet> {
+        self.usable.iter().any(|p| p == position).then(|| ViewSet {
+            reference: position.to_string(),
+            ..self.clone()
+        })
+    }
 }
 
 /// No usable view set.
@@ -137,5 +153,6 @@ pub fn select_views(
         reference,
         views,
         left_out,
+        usable: usable.iter().map(|p| p.name.clone()).collect(),
     })
 }

@@ -6,8 +6,8 @@ use matscan_estimate::models::weights_file_name;
 use matscan_estimate::output::ResultFile;
 use matscan_estimate::plan::Given;
 use matscan_estimate::{
-    cpu_device, estimate, EstimateError, EstimateOptions, ModelSource, Models, ParamKind, Status,
-    ViewFilter,
+    cpu_device, estimate, EstimateError, EstimateOptions, ModelSource, Models, ParamKind,
+    References, Status, ViewFilter,
 };
 use matscan_scan::image_io::read_scalar_exr;
 use matscan_scan::{Bundle, CaptureRole, Manifest, Param, TruthMap};
@@ -317,6 +317,60 @@ fn permuting_the_views_gives_bit_identical_maps() {
         let a = std::fs::read(outputs[0].join(&file)).unwrap();
         let b = std::fs::read(outputs[1].join(&file)).unwrap();
         assert!(a == b, "{file} differs");
+    }
+}
+
+#[test]
+fn every_position_as_reference_writes_each_positions_maps_and_keeps_the_reference_maps() {
+    let dir = tempfile::tempdir().unwrap();
+    let scan = scan_copy(dir.path());
+    let first_out = dir.path().join("first");
+    let every_out = dir.path().join("every");
+    let first = run(
+        &scan,
+        &EstimateOptions {
+            out: Some(first_out.clone()),
+            ..EstimateOptions::default()
+        },
+    )
+    .unwrap();
+    let every = run(
+        &scan,
+        &EstimateOptions {
+            out: Some(every_out.clone()),
+            references: References::Every,
+            ..EstimateOptions::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(first.positions, vec!["p0".to_string()]);
+    assert_eq!(every.positions, vec!["p0".to_string(), "p1".to_string()]);
+    assert_eq!(every.reference_position, "p0");
+    assert_eq!(every.metrics, first.metrics);
+    assert!(!first_out.join("p1").exists());
+    let bundle = Bundle::open(&scan).unwrap();
+    let mask = bundle
+        .read_truth("p1", &TruthMap::Mask)
+        .unwrap()
+        .unwrap()
+        .into_mask()
+        .unwrap();
+    for kind in ParamKind::ALL {
+        let file = format!("p0/{}.exr", kind.name());
+        let a = std::fs::read(first_out.join(&file)).unwrap();
+        let b = std::fs::read(every_out.join(&file)).unwrap();
+        assert!(a == b, "{file} differs between one and every reference");
+        if kind == ParamKind::Basecolor {
+            continue;
+        }
+        let p1 = read_scalar_exr(&every_out.join(format!("p1/{}.exr", kind.name()))).unwrap();
+        assert_eq!((p1.width, p1.height), (mask.width, mask.height));
+        for (v, inside) in p1.data.iter().zip(&mask.data) {
+            assert!(v.is_finite() && (0.0..=1.0).contains(v), "{kind}: {v}");
+            if !inside {
+                assert_eq!(*v, 0.0, "{kind} outside p1's mask");
+            }
+        }
     }
 }
 
