@@ -22,6 +22,7 @@ pub mod bake;
 pub mod distance;
 pub mod error;
 pub mod fuse;
+pub mod gltf_export;
 pub mod maps;
 pub mod pushpull;
 mod sampling;
@@ -34,6 +35,7 @@ pub use bake::{
 };
 pub use error::BakeError;
 pub use fuse::FuseOptions;
+pub use gltf_export::{export_gltf, GltfFormat};
 pub use maps::{MapValues, ParamMap, PositionMaps};
 pub use textures::{
     read_textures, texel_uv, texture_dir, texture_path, write_textures, BakedTextures,
