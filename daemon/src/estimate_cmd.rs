@@ -2,9 +2,12 @@
 //! `estimate/` (see `matscan_estimate::pipeline`).
 //!
 //! Weights: `--weights DIR` with `<param>.weights` per network, else the
-//! weights embedded in the binary. This build embeds none until trained
-//! weights exist, so without `--weights` the command refuses and says
-//! where it looked.
+//! trained weights embedded in the binary (a build without them refuses and
+//! says where it looked).
+//!
+//! `--every-position` estimates in every usable position's camera image, not
+//! only the reference's: what `matscan export` needs to bake textures that
+//! cover the whole object.
 
 use anyhow::{bail, Context, Result};
 use clap::Args;
@@ -12,7 +15,7 @@ use matscan_estimate::models::weights_file_name;
 use matscan_estimate::plan::{parse_given, parse_param};
 use matscan_estimate::weights::EMBEDDED;
 use matscan_estimate::{
-    cpu_device, estimate, EstimateOptions, ModelSource, ParamKind, Status, ViewFilter,
+    cpu_device, estimate, EstimateOptions, ModelSource, ParamKind, References, Status, ViewFilter,
 };
 use std::path::PathBuf;
 
@@ -42,6 +45,11 @@ pub struct EstimateArgs {
     /// the weights built into this binary).
     #[arg(long, value_name = "DIR")]
     pub weights: Option<PathBuf>,
+    /// Write maps for every usable position (each in turn as reference with
+    /// the same views), not only the reference: texture baking then covers
+    /// what any camera saw. Costs one network pass per position.
+    #[arg(long)]
+    pub every_position: bool,
 }
 
 /// Runs `matscan estimate`.
@@ -87,6 +95,11 @@ pub fn run(args: &EstimateArgs) -> Result<()> {
             positions: args.positions.clone(),
             views: args.views.clone(),
         },
+        references: if args.every_position {
+            References::Every
+        } else {
+            References::First
+        },
         ..EstimateOptions::default()
     };
     let report = estimate(&args.scan, models, &options, &cpu_device())
@@ -99,9 +112,10 @@ pub fn run(args: &EstimateArgs) -> Result<()> {
         eprintln!("left out: {reason}");
     }
     println!(
-        "reference position {}, {} views",
+        "reference position {}, {} views; maps for {}",
         result.reference_position,
-        result.views.len()
+        result.views.len(),
+        result.positions.join(", ")
     );
     for kind in ParamKind::ALL {
         let Some(entry) = result.param(kind) else {
