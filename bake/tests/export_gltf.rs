@@ -1,0 +1,261 @@
+//! `matscan export`'s library half: a simulated scan whose "estimate" is
+//! its truth maps is baked and exported; the glTF parses back with the
+//! expected textures and extensions, v is flipped, the GLB is
+//! self-contained, and the Khronos validator finds no error (when node and
+//! npm can install it; otherwise the test says it skipped).
+
+use matscan_bake::gltf_export::{DIFFUSE_TRANSMISSION_EXT, TRANSMISSION_EXT};
+use matscan_bake::{bake_scan, export_gltf, BakeError, BakeOptions, GltfFormat};
+use matscan_scan::bundle::TruthMap;
+use matscan_scan::image_io::{write_rgb_exr, write_scalar_exr, Precision};
+use matscan_scan::{Bundle, Param};
+use matscan_sim::render::{write_scan_bundle, SimOptions};
+use matscan_sim::scene::{generate, GeometryKind, GeometrySource, SceneKind, SceneOptions};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::OnceLock;
+
+struct Fixture {
+    _dir: tempfile::TempDir,
+    scan: PathBuf,
+    gltf: PathBuf,
+    glb: PathBuf,
+}
+
+/// A 32x32 two-position scan, its truth copied as the estimate of every
+/// position, baked at 64x64 and exported both ways.
+fn fixture() -> &'static Fixture {
+    static F: OnceLock<Fixture> = OnceLock::new();
+    F.get_or_init(|| {
+        let scene = generate(&SceneOptions {
+            seed: 11,
+            kind: SceneKind::TwoMatTransmission,
+            geometry: GeometrySource::Kind(GeometryKind::Torus),
+            width: 32,
+            height: 32,
+            positions: 2,
+            map_size: 16,
+        });
+        let dir = tempfile::tempdir().unwrap();
+        let scan = dir.path().join("scan");
+        let options = SimOptions {
+            samples: 1,
+            threads: Some(2),
+            ..SimOptions::default()
+        };
+        let bundle = write_scan_bundle(&scene, &options, &scan).unwrap();
+        let estimate = scan.join("estimate");
+        copy_truth_as_estimate(&bundle, &estimate);
+        let textures = bake_scan(
+            &scan,
+            &estimate,
+            &BakeOptions {
+                size: 64,
+                ..BakeOptions::default()
+            },
+        )
+        .unwrap();
+        let mesh = bundle.read_mesh().unwrap();
+        let gltf = export_gltf(&mesh, &textures, &estimate, GltfFormat::Separate, 1.0).unwrap();
+        let glb = export_gltf(&mesh, &textures, &estimate, GltfFormat::Binary, 1.0).unwrap();
+        Fixture {
+            _dir: dir,
+            scan,
+            gltf,
+            glb,
+        }
+    })
+}
+
+fn copy_truth_as_estimate(bundle: &Bundle, estimate: &Path) {
+    for p in &bundle.manifest.positions {
+        let dir = estimate.join(&p.name);
+        std::fs::create_dir_all(&dir).unwrap();
+        for param in Param::ALL {
+            let image = bundle
+                .read_truth(&p.name, &TruthMap::Param(param))
+                .unwrap()
+                .unwrap();
+            let path = dir.join(format!("{param}.exr"));
+            match param {
+                Param::Basecolor => {
+                    write_rgb_exr(&path, &image.into_rgb().unwrap(), Precision::Float)
+                }
+                _ => write_scalar_exr(&path, &image.into_scalar().unwrap(), Precision::Float),
+            }
+            .unwrap();
+        }
+    }
+}
+
+#[test]
+fn exported_gltf_parses_back_with_every_texture_and_extension() {
+    let f = fixture();
+    let doc = gltf::Gltf::open(&f.gltf).unwrap();
+    let used: Vec<&str> = doc.extensions_used().collect();
+    assert!(used.contains(&TRANSMISSION_EXT), "{used:?}");
+    assert!(used.contains(&DIFFUSE_TRANSMISSION_EXT), "{used:?}");
+    let material = doc.materials().next().unwrap();
+    let pbr = material.pbr_metallic_roughness();
+    let uri = |t: gltf::texture::Texture| match t.source().source() {
+        gltf::image::Source::Uri { uri, .. } => uri.to_string(),
+        other => panic!("expected a file, got {other:?}"),
+    };
+    assert_eq!(
+        uri(pbr.base_color_texture().unwrap().texture()),
+        "texture/basecolor.png"
+    );
+    assert_eq!(
+        uri(pbr.metallic_roughness_texture().unwrap().texture()),
+        "texture/metallic_roughness.png"
+    );
+    let transmission = material.transmission().unwrap();
+    assert_eq!(transmission.transmission_factor(), 1.0);
+    assert_eq!(
+        uri(transmission.transmission_texture().unwrap().texture()),
+        "texture/transmission.png"
+    );
+    let dt = material.extension_value(DIFFUSE_TRANSMISSION_EXT).unwrap();
+    assert_eq!(dt["diffuseTransmissionFactor"], 1.0);
+    for image in doc.images() {
+        if let gltf::image::Source::Uri { uri, .. } = image.source() {
+            assert!(
+                f.gltf.parent().unwrap().join(uri).is_file(),
+                "{uri} missing"
+            );
+        }
+    }
+    // Roughness in G and metallic in B of the packed texture, as baked.
+    let estimate = f.gltf.parent().unwrap();
+    let mr = image::open(estimate.join("texture/metallic_roughness.png"))
+        .unwrap()
+        .into_rgb16();
+    let rough = image::open(estimate.join("texture/roughness.png"))
+        .unwrap()
+        .into_luma16();
+    let metal = image::open(estimate.join("texture/metallic.png"))
+        .unwrap()
+        .into_luma16();
+    for (x, y) in [(0, 0), (17, 40), (63, 63)] {
+        let p = mr.get_pixel(x, y).0;
+        assert_eq!(p[1], rough.get_pixel(x, y).0[0]);
+        assert_eq!(p[2], metal.get_pixel(x, y).0[0]);
+    }
+}
+
+#[test]
+fn exported_uvs_have_v_flipped_to_the_top_left_origin() {
+    let f = fixture();
+    let mesh = Bundle::open(&f.scan).unwrap().read_mesh().unwrap();
+    let (doc, buffers, _) = gltf::import(&f.gltf).unwrap();
+    let primitive = doc.meshes().next().unwrap().primitives().next().unwrap();
+    let reader = primitive.reader(|b| Some(&buffers[b.index()]));
+    let uvs: Vec<[f32; 2]> = reader.read_tex_coords(0).unwrap().into_f32().collect();
+    let mesh_uvs = mesh.uvs.unwrap();
+    assert_eq!(uvs.len(), mesh_uvs.len());
+    let mut asymmetric = 0;
+    for (g, m) in uvs.iter().zip(&mesh_uvs) {
+        assert_eq!(g[0], m.x);
+        assert!((g[1] - (1.0 - m.y)).abs() < 1e-6, "{g:?} vs {m:?}");
+        asymmetric += usize::from((m.y - 0.5).abs() > 0.1);
+    }
+    assert!(asymmetric > 10, "the mesh's v values cannot show a flip");
+    let indices: Vec<u32> = reader.read_indices().unwrap().into_u32().collect();
+    assert_eq!(indices.len(), mesh.triangles.len() * 3);
+    let normals: Vec<[f32; 3]> = reader.read_normals().unwrap().collect();
+    assert!(normals
+        .iter()
+        .all(|n| ((n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt() - 1.0).abs() < 1e-4));
+}
+
+#[test]
+fn glb_is_self_contained() {
+    let f = fixture();
+    let bytes = std::fs::read(&f.glb).unwrap();
+    let (doc, buffers, images) = gltf::import_slice(&bytes).unwrap();
+    assert_eq!(buffers.len(), 1);
+    assert_eq!(images.len(), doc.images().count());
+    assert!(doc
+        .images()
+        .all(|i| matches!(i.source(), gltf::image::Source::View { .. })));
+    assert_eq!(images[0].width, 64);
+}
+
+#[test]
+fn baking_without_an_estimate_tells_to_run_matscan_estimate() {
+    let f = fixture();
+    let err = bake_scan(
+        &f.scan,
+        &f.scan.join("no-such-estimate"),
+        &BakeOptions::default(),
+    )
+    .unwrap_err();
+    assert!(matches!(err, BakeError::NothingToBake { .. }));
+    assert!(err.to_string().contains("matscan estimate"), "{err}");
+}
+
+fn target_dir() -> PathBuf {
+    std::env::var_os("CARGO_TARGET_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../target"))
+}
+
+/// `node_modules` with the validator, installed on first use; `Err` says
+/// why the check has to be skipped.
+fn validator_modules() -> Result<PathBuf, String> {
+    let dir = target_dir().join("gltf-validator");
+    let modules = dir.join("node_modules");
+    if modules.join("gltf-validator/package.json").is_file() {
+        return Ok(modules);
+    }
+    Command::new("node")
+        .arg("--version")
+        .output()
+        .map_err(|e| format!("no node ({e})"))?;
+    std::fs::create_dir_all(&dir).map_err(|e| e.to_string())?;
+    let out = Command::new("npm")
+        .args(["install", "--no-audit", "--no-fund", "--prefix"])
+        .arg(&dir)
+        .arg("gltf-validator")
+        .output()
+        .map_err(|e| format!("no npm ({e})"))?;
+    if !out.status.success() || !modules.join("gltf-validator/package.json").is_file() {
+        return Err(format!(
+            "npm install gltf-validator failed (offline?): {}",
+            String::from_utf8_lossy(&out.stderr)
+                .lines()
+                .last()
+                .unwrap_or("")
+        ));
+    }
+    Ok(modules)
+}
+
+#[test]
+fn khronos_validator_finds_no_errors_in_either_format() {
+    let f = fixture();
+    let modules = match validator_modules() {
+        Ok(m) => m,
+        Err(why) => {
+            println!("skipped: Khronos glTF validator not available: {why}");
+            return;
+        }
+    };
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/support/validate.js");
+    for file in [&f.gltf, &f.glb] {
+        let out = Command::new("node")
+            .arg(&script)
+            .arg(&modules)
+            .arg(file)
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let issues: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        println!("{}: {issues}", file.display());
+        assert_eq!(issues["numErrors"], 0, "{}: {issues:#}", file.display());
+    }
+}
