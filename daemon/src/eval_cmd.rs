@@ -1,13 +1,18 @@
-//! `matscan eval DATA`: the estimator's error against its run time over a
-//! set of simulated scans (truth maps included), one row per parameter and
-//! view configuration, as the thesis's tables 4.1 to 4.3 and section 4.6.
+//! `matscan eval SCANS...`: the estimator's error against its run time over
+//! simulated scans (truth maps included), as the thesis's tables 4.1 to 4.3
+//! and section 4.6.
 //!
 //! Configurations: the first N views of each scan (reference position
 //! first, in manifest order), for each N in `--views`; 0 means every view.
-//! Beside each figure stands a trivial baseline, the constant map holding
-//! the mean truth value of `--baseline-from` (the training set) or, without
-//! it, of the evaluated set itself (which flatters the baseline, so the
-//! estimator's gain over it is a lower bound), and the thesis's MAD.
+//! For each configuration it prints one row per parameter over every scan
+//! (beside a trivial baseline, the constant map holding the mean truth value
+//! of `--baseline-from` (the training set) or, without it, of the evaluated
+//! set itself, which flatters the baseline, so the estimator's gain over it
+//! is a lower bound; and the thesis's MAD), then MAD, MSE and PSNR per
+//! parameter per scene group and overall (see `eval_tables`), and with
+//! `--per-scene` each scene's run time beside its errors. `--csv` writes
+//! all of it as one tidy CSV whose `table` column says which table a row
+//! belongs to (`overall`, `group`, `scene`).
 //!
 //! Run time is the estimate's own `total_s` (load, calibration, inputs,
 //! weights, networks, metrics; writing excluded), as a median per scan.
@@ -15,10 +20,14 @@
 //! Boundaries: reads scans, calls `matscan_estimate::estimate` into a
 //! scratch folder, prints; changes no scan.
 
+use crate::eval_tables::{
+    csv_field, csv_number, group_rows, scene_group, GroupBy, GroupRow, SceneResult,
+};
 use anyhow::{bail, Context, Result};
+use burn::tensor::Device;
 use clap::Args;
 use matscan_calib::{calibrate_bundle, CalibOptions};
-use matscan_estimate::metrics::{error_metrics, ErrorMetrics};
+use matscan_estimate::metrics::error_metrics;
 use matscan_estimate::views::select_views;
 use matscan_estimate::weights::EMBEDDED;
 use matscan_estimate::{cpu_device, estimate, EstimateOptions, ModelSource, ParamKind, ViewFilter};
@@ -39,9 +48,10 @@ pub const THESIS_MAD: [(ParamKind, f64); 5] = [
 /// The flags of `matscan eval`.
 #[derive(Args, Debug)]
 pub struct EvalArgs {
-    /// A folder of simulated scans with truth maps (as `matscan simulate
-    /// --dataset` writes).
-    pub data: PathBuf,
+    /// Simulated scans with truth maps: scan folders, or folders of them
+    /// (as `matscan simulate --dataset` writes, also one level deeper).
+    #[arg(required = true, value_name = "SCANS")]
+    pub data: Vec<PathBuf>,
     /// Folder with `<param>.weights` per network (default: the weights
     /// built into this binary).
     #[arg(long, value_name = "DIR")]
@@ -56,9 +66,33 @@ pub struct EvalArgs {
     /// Evaluate at most this many scans (in name order).
     #[arg(long)]
     pub limit: Option<usize>,
-    /// Also write the table as CSV here.
+    /// Also write every table as one CSV here (column `table`: overall,
+    /// group or scene).
     #[arg(long, value_name = "FILE")]
     pub csv: Option<PathBuf>,
+    /// Rows of the per-group tables: the scene kind, or kind and geometry.
+    #[arg(long, value_enum, default_value_t = GroupBy::Kind)]
+    pub group_by: GroupBy,
+    /// Also print each scene's run time beside its errors (the CSV always
+    /// has them).
+    #[arg(long)]
+    pub per_scene: bool,
+}
+
+/// The scans named by `paths`: each a scan folder itself, or a folder of
+/// scans (see [`scans_in`]); in order, without repeats.
+pub fn collect_scans(paths: &[PathBuf]) -> Result<Vec<PathBuf>> {
+    let mut scans = Vec::new();
+    for path in paths {
+        if path.join("scan.toml").is_file() {
+            scans.push(path.clone());
+        } else {
+            scans.extend(scans_in(path)?);
+        }
+    }
+    let mut seen = std::collections::BTreeSet::new();
+    scans.retain(|s| seen.insert(s.clone()));
+    Ok(scans)
 }
 
 /// The scan folders under `dir` and its subfolders (one level, so a set
@@ -169,34 +203,83 @@ fn all_views(scan: &Path) -> Result<Option<Vec<String>>> {
     )
 }
 
-/// Sums of metrics for averaging.
-#[derive(Default, Clone, Copy)]
-struct Sum {
-    mad: f64,
-    mse: f64,
-    psnr: f64,
-    n: usize,
-}
-
-impl Sum {
-    fn add(&mut self, m: &ErrorMetrics) {
-        self.mad += m.mad;
-        self.mse += m.mse;
-        self.psnr += m.psnr;
-        self.n += 1;
-    }
-
-    fn mean(&self) -> Option<(f64, f64, f64)> {
-        (self.n > 0).then(|| {
-            let n = self.n as f64;
-            (self.mad / n, self.mse / n, self.psnr / n)
-        })
+/// The view filter of configuration `count` (0 = every view) for a scan
+/// whose usable views are `all` (`None`: let the estimate pick and report).
+pub fn view_filter(count: usize, all: Option<&[String]>) -> ViewFilter {
+    match (count, all) {
+        (0, _) | (_, None) => ViewFilter::default(),
+        (_, Some(all)) => ViewFilter {
+            positions: Vec::new(),
+            views: all.iter().take(count).cloned().collect(),
+        },
     }
 }
+
+/// The usable views of each of `scans` when any of `counts` needs them.
+pub fn views_of_scans(scans: &[PathBuf], counts: &[usize]) -> Result<Vec<Option<Vec<String>>>> {
+    if counts.iter().any(|&c| c > 0) {
+        scans.iter().map(|scan| all_views(scan)).collect()
+    } else {
+        Ok(vec![None; scans.len()])
+    }
+}
+
+/// Estimates `scan` with `options` and compares with its truth; the
+/// baseline (a constant map per parameter) is compared too where given.
+/// The estimate's folder is removed again. An `Err` is a scan that could
+/// not be estimated (the caller counts it as failed).
+pub fn evaluate_scene(
+    scan: &Path,
+    models: ModelSource,
+    options: &EstimateOptions,
+    device: &Device,
+    group_by: GroupBy,
+    baseline: Option<&BTreeMap<ParamKind, f64>>,
+) -> Result<SceneResult> {
+    let report = estimate(scan, models, options, device)
+        .with_context(|| format!("estimating {}", scan.display()))?;
+    let _ = std::fs::remove_dir_all(&report.out);
+    let bundle = Bundle::open(scan)?;
+    let mut result = SceneResult {
+        scan: scan.to_path_buf(),
+        group: scene_group(&bundle.manifest.name, group_by),
+        seconds: report.result.timings.total_s,
+        metrics: BTreeMap::new(),
+        baseline: BTreeMap::new(),
+    };
+    for kind in ParamKind::ALL {
+        let Some(m) = report.result.metrics.get(kind.name()) else {
+            continue;
+        };
+        result.metrics.insert(kind, *m);
+        if let (Some(mean), Some(t)) = (
+            baseline.and_then(|b| b.get(&kind)),
+            truth_of(&bundle, &report.result.reference_position, kind)?,
+        ) {
+            let constant = vec![*mean as f32; t.values.len()];
+            if let Some(b) = error_metrics(&constant, &t.values, &t.mask, t.channels) {
+                result.baseline.insert(kind, b);
+            }
+        }
+    }
+    Ok(result)
+}
+
+/// "1 view", "3 views", "all views".
+pub fn views_label(count: usize) -> String {
+    match count {
+        0 => "all views".to_string(),
+        1 => "1 view".to_string(),
+        n => format!("{n} views"),
+    }
+}
+
+/// Header of the CSV `--csv` writes.
+pub const CSV_HEADER: &str = "table,views,group,scan,param,scans,mad,mse,psnr,baseline_mad,baseline_mse,baseline_psnr,thesis_mad,seconds";
 
 /// Runs `matscan eval`.
 pub fn run(args: &EvalArgs) -> Result<()> {
-    let mut scans = scans_in(&args.data)?;
+    let mut scans = collect_scans(&args.data)?;
     if let Some(limit) = args.limit {
         scans.truncate(limit);
     }
@@ -215,130 +298,71 @@ pub fn run(args: &EvalArgs) -> Result<()> {
     let scratch = std::env::temp_dir().join(format!("matscan-eval-{}", std::process::id()));
     let device = cpu_device();
     let thesis: BTreeMap<ParamKind, f64> = THESIS_MAD.into_iter().collect();
+    let data_label = args
+        .data
+        .iter()
+        .map(|p| p.display().to_string())
+        .collect::<Vec<_>>()
+        .join(", ");
 
     let mut table = String::new();
-    let mut csv = String::from("views,param,scans,mad,mse,psnr,baseline_mad,baseline_mse,baseline_psnr,thesis_mad,median_seconds\n");
+    let mut csv = format!("{CSV_HEADER}\n");
     let _ = writeln!(
         table,
-        "{} scans from {}; baseline: mean truth of {}",
+        "{} scans from {data_label}; baseline: mean truth of {}",
         scans.len(),
-        args.data.display(),
         args.baseline_from
-            .as_deref()
-            .unwrap_or(&args.data)
-            .display()
+            .as_ref()
+            .map_or(data_label.clone(), |p| p.display().to_string())
     );
     // Every scan's usable views in order, calibrated once for all
-    // configurations (`None` where the estimate itself will report why it
-    // has none).
-    let views_of: Vec<Option<Vec<String>>> = if args.views.iter().any(|&c| c > 0) {
-        scans
-            .iter()
-            .map(|scan| all_views(scan))
-            .collect::<Result<_>>()?
-    } else {
-        vec![None; scans.len()]
-    };
+    // configurations.
+    let views_of = views_of_scans(&scans, &args.views)?;
     for &count in &args.views {
-        let mut est: BTreeMap<ParamKind, Sum> = BTreeMap::new();
-        let mut base: BTreeMap<ParamKind, Sum> = BTreeMap::new();
-        let mut seconds = Vec::new();
+        let mut results = Vec::new();
         let mut failures = Vec::new();
         for (i, scan) in scans.iter().enumerate() {
-            let filter = match (count, &views_of[i]) {
-                (0, _) | (_, None) => ViewFilter::default(),
-                (_, Some(all)) => ViewFilter {
-                    positions: Vec::new(),
-                    views: all.iter().take(count).cloned().collect(),
-                },
-            };
             let options = EstimateOptions {
                 out: Some(scratch.join(format!("{count}-{i}"))),
-                filter,
+                filter: view_filter(count, views_of[i].as_deref()),
                 ..EstimateOptions::default()
             };
-            let report = match estimate(scan, models(), &options, &device) {
-                Ok(r) => r,
-                Err(e) => {
-                    failures.push(format!("{}: {e}", scan.display()));
-                    continue;
-                }
-            };
-            let _ = std::fs::remove_dir_all(&report.out);
-            seconds.push(report.result.timings.total_s);
-            let bundle = Bundle::open(scan)?;
-            for kind in ParamKind::ALL {
-                if let Some(m) = report.result.metrics.get(kind.name()) {
-                    est.entry(kind).or_default().add(m);
-                    if let (Some(mean), Some(t)) = (
-                        baseline.get(&kind),
-                        truth_of(&bundle, &report.result.reference_position, kind)?,
-                    ) {
-                        let constant = vec![*mean as f32; t.values.len()];
-                        if let Some(b) = error_metrics(&constant, &t.values, &t.mask, t.channels) {
-                            base.entry(kind).or_default().add(&b);
-                        }
-                    }
-                }
+            match evaluate_scene(
+                scan,
+                models(),
+                &options,
+                &device,
+                args.group_by,
+                Some(&baseline),
+            ) {
+                Ok(r) => results.push(r),
+                Err(e) => failures.push(format!("{e:#}")),
             }
         }
         let _ = std::fs::remove_dir_all(&scratch);
-        seconds.sort_by(f64::total_cmp);
-        let median = seconds.get(seconds.len() / 2).copied().unwrap_or(f64::NAN);
-        let label = if count == 0 {
-            "all views".to_string()
-        } else {
-            format!("{count} view{}", if count == 1 { "" } else { "s" })
-        };
+        let rows = group_rows(&results);
+        let label = views_label(count);
+        let overall = rows
+            .last()
+            .filter(|r| r.group == crate::eval_tables::ALL_GROUP);
         let _ = writeln!(
             table,
-            "\n{label}: median {median:.2} s per scan ({} estimated, {} failed)",
-            seconds.len(),
+            "\n{label}: median {:.2} s per scan ({} estimated, {} failed)",
+            overall.map_or(f64::NAN, |r| r.median_seconds),
+            results.len(),
             failures.len()
         );
-        let _ = writeln!(
-            table,
-            "{:<13} {:>5} {:>8} {:>9} {:>7}   {:>8} {:>9} {:>7}   {:>8}",
-            "parameter", "scans", "MAD", "MSE", "PSNR", "base MAD", "base MSE", "b PSNR", "thesis"
-        );
-        for kind in ParamKind::ALL {
-            let Some((mad, mse, psnr)) = est.get(&kind).and_then(Sum::mean) else {
-                let _ = writeln!(
-                    table,
-                    "{:<13} {:>5}   (not estimated on any scan)",
-                    kind.name(),
-                    0
-                );
-                continue;
-            };
-            let (bmad, bmse, bpsnr) =
-                base.get(&kind)
-                    .and_then(Sum::mean)
-                    .unwrap_or((f64::NAN, f64::NAN, f64::NAN));
-            let n = est[&kind].n;
-            let _ = writeln!(
-                table,
-                "{:<13} {:>5} {:>8.4} {:>9.5} {:>7.2}   {:>8.4} {:>9.5} {:>7.2}   {:>8.4}",
-                kind.name(),
-                n,
-                mad,
-                mse,
-                psnr,
-                bmad,
-                bmse,
-                bpsnr,
-                thesis[&kind]
-            );
-            let _ = writeln!(
-                csv,
-                "{count},{},{n},{mad},{mse},{psnr},{bmad},{bmse},{bpsnr},{},{median}",
-                kind.name(),
-                thesis[&kind]
-            );
+        if let Some(all) = overall {
+            write_overall(&mut table, all, &thesis);
+        }
+        write_group_tables(&mut table, &rows);
+        if args.per_scene {
+            write_scene_table(&mut table, &results);
         }
         for f in failures.iter().take(5) {
             let _ = writeln!(table, "  failed: {f}");
         }
+        write_csv_rows(&mut csv, count, &rows, &results, &thesis);
     }
     print!("{table}");
     if let Some(path) = &args.csv {
@@ -347,4 +371,183 @@ pub fn run(args: &EvalArgs) -> Result<()> {
         println!("wrote {}", path.display());
     }
     Ok(())
+}
+
+/// The `ALL` row per parameter beside the baseline and the thesis.
+fn write_overall(table: &mut String, all: &GroupRow, thesis: &BTreeMap<ParamKind, f64>) {
+    let _ = writeln!(
+        table,
+        "{:<13} {:>5} {:>8} {:>9} {:>7}   {:>8} {:>9} {:>7}   {:>8}",
+        "parameter", "scans", "MAD", "MSE", "PSNR", "base MAD", "base MSE", "b PSNR", "thesis"
+    );
+    for kind in ParamKind::ALL {
+        let Some(m) = all.estimate.get(&kind) else {
+            let _ = writeln!(
+                table,
+                "{:<13} {:>5}   (not estimated on any scan)",
+                kind.name(),
+                0
+            );
+            continue;
+        };
+        let (bmad, bmse, bpsnr) = all
+            .baseline
+            .get(&kind)
+            .map_or((f64::NAN, f64::NAN, f64::NAN), |b| (b.mad, b.mse, b.psnr));
+        let _ = writeln!(
+            table,
+            "{:<13} {:>5} {:>8.4} {:>9.5} {:>7.2}   {:>8.4} {:>9.5} {:>7.2}   {:>8.4}",
+            kind.name(),
+            m.n,
+            m.mad,
+            m.mse,
+            m.psnr,
+            bmad,
+            bmse,
+            bpsnr,
+            thesis.get(&kind).copied().unwrap_or(f64::NAN)
+        );
+    }
+}
+
+/// Tables 4.1 to 4.3: one per metric, a row per group and `ALL`, a column
+/// per parameter, and the group's median run time.
+fn write_group_tables(table: &mut String, rows: &[GroupRow]) {
+    let width = rows.iter().map(|r| r.group.len()).max().unwrap_or(0).max(7);
+    type Pick = fn(&crate::eval_tables::Means) -> f64;
+    let metrics: [(&str, Pick, usize); 3] = [
+        ("MAD", |m| m.mad, 4),
+        ("MSE", |m| m.mse, 5),
+        ("PSNR", |m| m.psnr, 2),
+    ];
+    for (name, pick, decimals) in metrics {
+        let _ = write!(
+            table,
+            "\n{name} by scene group\n{:<width$} {:>3}",
+            "group", "#"
+        );
+        for kind in ParamKind::ALL {
+            let _ = write!(table, " {:>12}", kind.name());
+        }
+        let _ = writeln!(table, " {:>9}", "median s");
+        for row in rows {
+            let _ = write!(table, "{:<width$} {:>3}", row.group, row.scenes);
+            for kind in ParamKind::ALL {
+                match row.estimate.get(&kind) {
+                    Some(m) => {
+                        let _ = write!(table, " {:>12.decimals$}", pick(m));
+                    }
+                    None => {
+                        let _ = write!(table, " {:>12}", "-");
+                    }
+                }
+            }
+            let _ = writeln!(table, " {:>9.2}", row.median_seconds);
+        }
+    }
+}
+
+/// Each scene's run time beside its MAD per parameter.
+fn write_scene_table(table: &mut String, results: &[SceneResult]) {
+    let name = |r: &SceneResult| {
+        r.scan
+            .file_name()
+            .map_or(r.scan.display().to_string(), |n| {
+                n.to_string_lossy().into_owned()
+            })
+    };
+    let width = results
+        .iter()
+        .map(|r| name(r).len())
+        .max()
+        .unwrap_or(0)
+        .max(5);
+    let _ = write!(
+        table,
+        "\nper scene: run time and MAD\n{:<width$} {:<18} {:>8}",
+        "scene", "group", "seconds"
+    );
+    for kind in ParamKind::ALL {
+        let _ = write!(table, " {:>12}", kind.name());
+    }
+    let _ = writeln!(table);
+    for r in results {
+        let _ = write!(
+            table,
+            "{:<width$} {:<18} {:>8.2}",
+            name(r),
+            r.group,
+            r.seconds
+        );
+        for kind in ParamKind::ALL {
+            match r.metrics.get(&kind) {
+                Some(m) => {
+                    let _ = write!(table, " {:>12.4}", m.mad);
+                }
+                None => {
+                    let _ = write!(table, " {:>12}", "-");
+                }
+            }
+        }
+        let _ = writeln!(table);
+    }
+}
+
+/// The tidy CSV rows of one view configuration: `overall` (the ALL row with
+/// baseline and thesis), `group` (each group) and `scene` (each scene).
+fn write_csv_rows(
+    csv: &mut String,
+    count: usize,
+    rows: &[GroupRow],
+    results: &[SceneResult],
+    thesis: &BTreeMap<ParamKind, f64>,
+) {
+    for row in rows {
+        let table = if row.group == crate::eval_tables::ALL_GROUP {
+            "overall"
+        } else {
+            "group"
+        };
+        for kind in ParamKind::ALL {
+            let Some(m) = row.estimate.get(&kind) else {
+                continue;
+            };
+            let b = row.baseline.get(&kind);
+            let _ = writeln!(
+                csv,
+                "{table},{count},{},,{},{},{},{},{},{},{},{},{},{}",
+                csv_field(&row.group),
+                kind.name(),
+                m.n,
+                csv_number(Some(m.mad)),
+                csv_number(Some(m.mse)),
+                csv_number(Some(m.psnr)),
+                csv_number(b.map(|b| b.mad)),
+                csv_number(b.map(|b| b.mse)),
+                csv_number(b.map(|b| b.psnr)),
+                csv_number(thesis.get(&kind).copied()),
+                csv_number(Some(row.median_seconds)),
+            );
+        }
+    }
+    for r in results {
+        for (kind, m) in &r.metrics {
+            let b = r.baseline.get(kind);
+            let _ = writeln!(
+                csv,
+                "scene,{count},{},{},{},1,{},{},{},{},{},{},{},{}",
+                csv_field(&r.group),
+                csv_field(&r.scan.display().to_string()),
+                kind.name(),
+                csv_number(Some(m.mad)),
+                csv_number(Some(m.mse)),
+                csv_number(Some(m.psnr)),
+                csv_number(b.map(|b| b.mad)),
+                csv_number(b.map(|b| b.mse)),
+                csv_number(b.map(|b| b.psnr)),
+                csv_number(thesis.get(kind).copied()),
+                csv_number(Some(r.seconds)),
+            );
+        }
+    }
 }

@@ -1,5 +1,5 @@
-//! A 5x7 bitmap font for labels on contact sheets, so that drawing text
-//! needs no font file or rendering crate. Lowercase is drawn as uppercase;
+//! A 5x7 bitmap font for labels on contact sheets and charts, so that
+//! drawing text needs no font file or rendering crate. Lowercase is drawn as uppercase;
 //! characters outside the table are drawn as a box.
 
 /// Glyph rows, top to bottom; bit 4 is the leftmost column.
@@ -47,6 +47,11 @@ fn glyph(c: char) -> [u8; 7] {
         ':' => [0x00, 0x0C, 0x0C, 0x00, 0x0C, 0x0C, 0x00],
         '/' => [0x00, 0x01, 0x02, 0x04, 0x08, 0x10, 0x00],
         '=' => [0x00, 0x00, 0x1F, 0x00, 0x1F, 0x00, 0x00],
+        '(' => [0x02, 0x04, 0x08, 0x08, 0x08, 0x04, 0x02],
+        ')' => [0x08, 0x04, 0x02, 0x02, 0x02, 0x04, 0x08],
+        ',' => [0x00, 0x00, 0x00, 0x00, 0x0C, 0x04, 0x08],
+        '+' => [0x00, 0x04, 0x04, 0x1F, 0x04, 0x04, 0x00],
+        '%' => [0x18, 0x19, 0x02, 0x04, 0x08, 0x13, 0x03],
         ' ' => [0x00; 7],
         _ => [0x1F, 0x11, 0x11, 0x11, 0x11, 0x11, 0x1F],
     }
@@ -56,6 +61,27 @@ pub const GLYPH_W: u32 = 5;
 pub const GLYPH_H: u32 = 7;
 /// Horizontal advance per character at scale 1 (glyph plus one column gap).
 pub const ADVANCE: u32 = GLYPH_W + 1;
+
+/// Calls `put(x, y)` for every pixel of `text` drawn at `scale` with its
+/// top-left corner at (`x`, `y`); the caller clips and colours, so any
+/// pixel buffer can take text.
+pub fn for_each_pixel(x: u32, y: u32, scale: u32, text: &str, mut put: impl FnMut(u32, u32)) {
+    for (k, c) in text.chars().enumerate() {
+        let gx = x + k as u32 * ADVANCE * scale;
+        for (row, bits) in glyph(c).iter().enumerate() {
+            for col in 0..GLYPH_W {
+                if bits & (0x10 >> col) == 0 {
+                    continue;
+                }
+                for sy in 0..scale {
+                    for sx in 0..scale {
+                        put(gx + col * scale + sx, y + row as u32 * scale + sy);
+                    }
+                }
+            }
+        }
+    }
+}
 
 /// Draws `text` with its top-left corner at (`x`, `y`) into an RGB float buffer
 /// of `width` x `height`, clipping at the edges.
@@ -70,26 +96,12 @@ pub fn draw_text(
     color: [f32; 3],
     text: &str,
 ) {
-    for (k, c) in text.chars().enumerate() {
-        let gx = x + k as u32 * ADVANCE * scale;
-        for (row, bits) in glyph(c).iter().enumerate() {
-            for col in 0..GLYPH_W {
-                if bits & (0x10 >> col) == 0 {
-                    continue;
-                }
-                for sy in 0..scale {
-                    for sx in 0..scale {
-                        let px = gx + col * scale + sx;
-                        let py = y + row as u32 * scale + sy;
-                        if px < width && py < height {
-                            let i = (py as usize * width as usize + px as usize) * 3;
-                            buf[i..i + 3].copy_from_slice(&color);
-                        }
-                    }
-                }
-            }
+    for_each_pixel(x, y, scale, text, |px, py| {
+        if px < width && py < height {
+            let i = (py as usize * width as usize + px as usize) * 3;
+            buf[i..i + 3].copy_from_slice(&color);
         }
-    }
+    });
 }
 
 /// Width in pixels of `text` drawn at `scale`.

@@ -111,8 +111,10 @@ const W: u32 = 800;
 const H: u32 = 450;
 const MARGIN: i64 = 20;
 
-fn line(img: &mut RgbImage, (x0, y0): (i64, i64), (x1, y1): (i64, i64), colour: Rgb<u8>) {
-    // Bresenham.
+/// Draws a one-pixel line from (`x0`, `y0`) to (`x1`, `y1`) (Bresenham),
+/// clipped to the image. Public so that other plots (`matscan bench`'s
+/// error against run time) draw with the same primitive.
+pub fn line(img: &mut RgbImage, (x0, y0): (i64, i64), (x1, y1): (i64, i64), colour: Rgb<u8>) {
     let (dx, dy) = ((x1 - x0).abs(), -(y1 - y0).abs());
     let (sx, sy) = (if x0 < x1 { 1 } else { -1 }, if y0 < y1 { 1 } else { -1 });
     let (mut x, mut y, mut err) = (x0, y0, dx + dy);

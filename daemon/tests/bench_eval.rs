@@ -1,0 +1,182 @@
+//! `matscan bench` and `matscan eval`'s tables end to end on tiny simulated
+//! sets (32 px, one or two scenes), with the embedded weights.
+
+use std::path::Path;
+use std::process::Command;
+
+fn matscan(args: &[&str]) -> std::process::Output {
+    let o = Command::new(env!("CARGO_BIN_EXE_matscan"))
+        .args(args)
+        .output()
+        .expect("run matscan");
+    assert!(
+        o.status.success(),
+        "matscan {args:?} failed:\n{}\n{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    o
+}
+
+/// Splits a CSV line written by matscan (no quoted fields in these tests).
+fn fields(line: &str) -> Vec<&str> {
+    line.split(',').collect()
+}
+
+#[test]
+fn bench_quick_writes_a_row_per_setting_with_finite_figures_and_a_png() {
+    let tmp = tempfile::tempdir().unwrap();
+    let data = tmp.path().join("set");
+    let out = tmp.path().join("out");
+    let o = matscan(&[
+        "bench",
+        "--quick",
+        "--data",
+        data.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--base-size",
+        "32",
+        "--positions",
+        "2",
+        "--samples",
+        "2",
+        "--skip",
+        "width",
+    ]);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(stdout.contains("not built (no GPU backend in this build)"), "{stdout}");
+    assert!(data.join("32px").join("2mat-40000").join("scan.toml").is_file());
+    assert!(data.join("bench-data.toml").is_file());
+
+    let csv = std::fs::read_to_string(out.join("bench.csv")).unwrap();
+    let lines: Vec<&str> = csv.lines().collect();
+    let header = fields(lines[0]);
+    assert_eq!(header[0], "knob");
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let rows: Vec<Vec<&str>> = lines[1..].iter().map(|l| fields(l)).collect();
+    let keys: Vec<(&str, &str)> = rows.iter().map(|r| (r[0], r[1])).collect();
+    assert_eq!(
+        keys,
+        [
+            ("views", "1 view"),
+            ("views", "all views"),
+            ("resolution", "32 px"),
+            ("backend", "cpu flex"),
+            ("backend", "cpu ndarray"),
+            ("backend", "gpu"),
+        ]
+    );
+    let mads = [
+        "basecolor_mad",
+        "roughness_mad",
+        "metallic_mad",
+        "transmission_mad",
+        "subsurface_mad",
+    ];
+    for r in &rows {
+        if r[col("status")] != "measured" {
+            continue;
+        }
+        let seconds: f64 = r[col("median_seconds")].parse().unwrap();
+        assert!(seconds.is_finite() && seconds > 0.0, "{r:?}");
+        assert_eq!(r[col("scenes")], "1");
+        for m in mads {
+            let v: f64 = r[col(m)].parse().unwrap();
+            assert!((0.0..=1.0).contains(&v), "{m} = {v} in {r:?}");
+        }
+    }
+    // Every view and 32 px are both the base configuration, measured once.
+    assert_eq!(rows[1][col("median_seconds")], rows[2][col("median_seconds")]);
+    assert_eq!(rows[2][col("status")], "measured");
+    assert!(rows[5][col("status")].starts_with("not built"));
+    assert_eq!(rows[5][col("median_seconds")], "");
+
+    let png = image::open(out.join("bench.png")).unwrap().to_rgb8();
+    assert!(png.width() >= 800 && png.height() >= 400);
+    // The views knob's line (two measured points) is drawn in its colour.
+    assert!(png.pixels().any(|p| p.0 == [31, 119, 180]));
+}
+
+fn simulate(out: &Path, kind: &str, seed: &str) {
+    matscan(&[
+        "simulate",
+        "--out",
+        out.to_str().unwrap(),
+        "--size",
+        "32",
+        "--positions",
+        "2",
+        "--samples",
+        "2",
+        "--geometry",
+        "sphere",
+        "--kind",
+        kind,
+        "--seed",
+        seed,
+    ]);
+}
+
+#[test]
+fn eval_tables_group_scans_by_kind_and_overall_weighs_every_scene() {
+    let tmp = tempfile::tempdir().unwrap();
+    let a = tmp.path().join("a");
+    let b = tmp.path().join("b");
+    let c = tmp.path().join("set").join("c");
+    simulate(&a, "2mat", "3");
+    simulate(&b, "multimat", "4");
+    std::fs::create_dir_all(c.parent().unwrap()).unwrap();
+    simulate(&c, "2mat", "5");
+    let csv_path = tmp.path().join("eval.csv");
+    // Two scan folders and a folder of scans in one call.
+    let o = matscan(&[
+        "eval",
+        a.to_str().unwrap(),
+        b.to_str().unwrap(),
+        c.parent().unwrap().to_str().unwrap(),
+        "--views",
+        "0",
+        "--per-scene",
+        "--csv",
+        csv_path.to_str().unwrap(),
+    ]);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(stdout.contains("MAD by scene group"), "{stdout}");
+    assert!(stdout.contains("per scene: run time and MAD"), "{stdout}");
+
+    let csv = std::fs::read_to_string(&csv_path).unwrap();
+    let lines: Vec<&str> = csv.lines().collect();
+    let header = fields(lines[0]);
+    assert_eq!(header[0], "table");
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let rows: Vec<Vec<&str>> = lines[1..].iter().map(|l| fields(l)).collect();
+    let find = |table: &str, group: &str, param: &str| -> Vec<Vec<&str>> {
+        rows.iter()
+            .filter(|r| r[col("table")] == table && r[col("group")] == group)
+            .filter(|r| r[col("param")] == param)
+            .cloned()
+            .collect()
+    };
+    let num = |r: &Vec<&str>, c: &str| -> f64 { r[col(c)].parse().unwrap() };
+    for param in ["basecolor", "roughness"] {
+        let scenes2 = find("scene", "2mat", param);
+        let scenes_multi = find("scene", "multimat", param);
+        assert_eq!((scenes2.len(), scenes_multi.len()), (2, 1));
+        for s in scenes2.iter().chain(&scenes_multi) {
+            assert!(num(s, "seconds") > 0.0);
+        }
+        let g2 = &find("group", "2mat", param)[0];
+        assert_eq!(g2[col("scans")], "2");
+        let mean2 = (num(&scenes2[0], "mad") + num(&scenes2[1], "mad")) / 2.0;
+        assert!((num(g2, "mad") - mean2).abs() < 1e-9);
+        let all = &find("overall", "ALL", param)[0];
+        assert_eq!(all[col("scans")], "3");
+        let mean_all = (num(&scenes2[0], "mad")
+            + num(&scenes2[1], "mad")
+            + num(&scenes_multi[0], "mad"))
+            / 3.0;
+        assert!((num(all, "mad") - mean_all).abs() < 1e-9);
+        assert!(num(all, "baseline_mad").is_finite());
+    }
+}
