@@ -34,6 +34,10 @@ pub enum Command {
     /// and PSNR per parameter for 1, 3 and all views, beside a trivial
     /// baseline and the thesis's figures.
     Eval(crate::eval_cmd::EvalArgs),
+    /// Error against run time over the knobs that trade one for the other
+    /// (views, resolution, network width, backend) on a cached simulated
+    /// set: a table, and with --out bench.csv and bench.png.
+    Bench(crate::bench_cmd::BenchArgs),
     /// Bake a scan's estimate into UV textures (SCAN/estimate/texture) and
     /// write the mesh with that material as glTF 2.0 (material.gltf +
     /// material.bin, or --glb), plus principled.md for Blender.
@@ -178,6 +182,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Demo(a) => crate::demo::run(&a),
         Command::Estimate(a) => crate::estimate_cmd::run(&a),
         Command::Eval(a) => crate::eval_cmd::run(&a),
+        Command::Bench(a) => crate::bench_cmd::run(&a),
         Command::Export(a) => crate::export_cmd::run(&a),
         Command::Train(a) => crate::train_cmd::run(&a),
         Command::Daemon(a) => {

@@ -11,12 +11,15 @@
 //! for progress bars on long runs; `tracing-subscriber` for logs on stderr
 //! (`RUST_LOG` selects the level).
 
+mod bench_cmd;
 mod calib_cmd;
+mod chart;
 mod cli;
 mod demo;
 mod estimate_cmd;
 mod export_cmd;
 mod eval_cmd;
+mod eval_tables;
 mod font;
 mod sheet;
 mod simulate;
