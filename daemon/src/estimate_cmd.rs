@@ -8,11 +8,17 @@
 //! `--every-position` estimates in every usable position's camera image, not
 //! only the reference's: what `matscan export` needs to bake textures that
 //! cover the whole object.
+//!
+//! `--refine N` runs the per-pixel refinement after the networks with N
+//! solver iterations (0, the default, turns it off; see
+//! `matscan_estimate::refine`); it writes `<param>_confidence.exr` beside
+//! the maps and its stop reasons into `result.toml`.
 
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use matscan_estimate::models::weights_file_name;
 use matscan_estimate::plan::{parse_given, parse_param};
+use matscan_estimate::refine::RefineOptions;
 use matscan_estimate::weights::EMBEDDED;
 use matscan_estimate::{
     cpu_device, estimate, EstimateOptions, ModelSource, ParamKind, References, Status, ViewFilter,
@@ -50,6 +56,11 @@ pub struct EstimateArgs {
     /// what any camera saw. Costs one network pass per position.
     #[arg(long)]
     pub every_position: bool,
+    /// Refine basecolor, roughness and metallic per pixel against the
+    /// photos after the networks, with at most N solver iterations per
+    /// pixel (0: off). Run time grows linearly with N.
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    pub refine: u32,
 }
 
 /// Runs `matscan estimate`.
@@ -100,6 +111,10 @@ pub fn run(args: &EstimateArgs) -> Result<()> {
         } else {
             References::First
         },
+        refine: RefineOptions {
+            iterations: args.refine,
+            ..RefineOptions::default()
+        },
         ..EstimateOptions::default()
     };
     let report = estimate(&args.scan, models, &options, &cpu_device())
@@ -135,6 +150,16 @@ pub fn run(args: &EstimateArgs) -> Result<()> {
             .map(|m| format!("; MAD {:.4} MSE {:.5} PSNR {:.2} dB", m.mad, m.mse, m.psnr))
             .unwrap_or_default();
         println!("{kind}: {line}{metrics}");
+    }
+    if let Some(r) = &result.refine {
+        let stops: Vec<String> = r.stops.iter().map(|(k, v)| format!("{k} {v}")).collect();
+        println!(
+            "refined {} ({} iterations, {:.2} s): {}",
+            r.fitted.join(", "),
+            r.iterations,
+            result.timings.refine_s,
+            stops.join(", ")
+        );
     }
     println!(
         "{:.2} s; wrote {}",

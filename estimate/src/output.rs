@@ -85,6 +85,10 @@ pub struct Timings {
     pub total_s: f64,
     /// Each network that ran, by name (assembling its inputs included).
     pub networks: BTreeMap<String, f64>,
+    /// The refinement after the networks, every position together (0 when
+    /// it did not run).
+    #[serde(default)]
+    pub refine_s: f64,
 }
 
 /// `result.toml`.
@@ -114,6 +118,9 @@ pub struct ResultFile {
     pub timings: Timings,
     /// Error metrics per parameter over the truth mask, when the scan has truth.
     pub metrics: BTreeMap<String, ErrorMetrics>,
+    /// What the refinement after the networks did, when it ran.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub refine: Option<crate::refine::RefineSummary>,
 }
 
 impl ResultFile {
@@ -281,6 +288,7 @@ mod tests {
             models: BTreeMap::new(),
             timings: Timings::default(),
             metrics: BTreeMap::new(),
+            refine: None,
         }
     }
 

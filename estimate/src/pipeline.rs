@@ -14,8 +14,14 @@
 //! has a backlit capture, subsurface only views whose position has a
 //! checker capture, the others every view.
 //!
+//! Refinement (optional, `EstimateOptions::refine`): after the networks of
+//! each position, `refine` fits basecolor, roughness and metallic per pixel
+//! to the photos, starting from the networks' maps (given or skipped
+//! parameters are held), and its confidence maps are written beside them.
+//!
 //! Out of scope: the networks (see `network`), channel assembly (see
-//! `inputs`), the plan (see `plan`), file layout (see `output`).
+//! `inputs`), the plan (see `plan`), file layout (see `output`), the fit
+//! (see `refine`).
 
 use crate::inputs::{rgb_of_ycbcr, uncentre, Dependencies, InputsError, SceneInputs};
 use crate::metrics::error_metrics;
@@ -26,10 +32,13 @@ use crate::output::{
     RESULT_FORMAT,
 };
 use crate::plan::{default_value, Availability, Decision, Given, Plan, PlanError};
+use crate::refine::{
+    refine_scene, Hold, RefineError, RefineOptions, RefineSummary, Start, StopReason, NOT_FITTED,
+};
 use crate::spec::ParamKind;
 use crate::views::{select_views, ViewError, ViewFilter};
 use burn::tensor::Device;
-use matscan_calib::{calibrate_bundle, CalibError, CalibOptions};
+use matscan_calib::{calibrate_bundle, CalibError, CalibOptions, ScanCalibration};
 use matscan_scan::image_io::{read_rgb_exr, read_scalar_exr};
 use matscan_scan::raster::{RgbRaster, ScalarRaster};
 use matscan_scan::{Bundle, Param, ScanError, TruthMap};
@@ -52,6 +61,8 @@ pub struct EstimateOptions {
     pub calib: CalibOptions,
     /// Which positions get maps.
     pub references: References,
+    /// The per-pixel refinement after the networks (off by default).
+    pub refine: RefineOptions,
 }
 
 /// Which positions' camera images get maps.
@@ -117,6 +128,9 @@ pub enum EstimateError {
     /// Writing the result failed.
     #[error(transparent)]
     Output(#[from] OutputError),
+    /// The refinement could not run.
+    #[error(transparent)]
+    Refine(#[from] RefineError),
 }
 
 /// What a finished estimate wrote.
@@ -183,8 +197,18 @@ pub fn estimate(
     let models = models.resolve(&kinds, device)?;
     timings.weights_s = t.elapsed().as_secs_f64();
 
-    let (values, mut runs) = run_networks(&plan, &models, &inputs, device)?;
+    let (mut values, mut runs) = run_networks(&plan, &models, &inputs, device)?;
     timings.load_s += values.given_s;
+    let mut tally = RefineTally::default();
+    let confidence = refine_values(
+        &mut values,
+        &plan,
+        &bundle,
+        &calibration,
+        &inputs,
+        &options.refine,
+        &mut tally,
+    )?;
     let maps = written_maps(&plan, &values, &inputs);
     let t = Instant::now();
     let metrics = metrics(&bundle, &set.reference, &maps, &inputs)?;
@@ -193,7 +217,7 @@ pub fn estimate(
     let mut positions = vec![PositionMaps {
         position: set.reference.clone(),
         maps,
-        extra: BTreeMap::new(),
+        extra: confidence,
     }];
     if options.references == References::Every {
         let given_map = options
@@ -220,15 +244,24 @@ pub fn estimate(
                     warnings.push(w.clone());
                 }
             }
-            let (values, more) = run_networks(&plan, &models, &inputs, device)?;
+            let (mut values, more) = run_networks(&plan, &models, &inputs, device)?;
             timings.load_s += values.given_s;
+            let confidence = refine_values(
+                &mut values,
+                &plan,
+                &bundle,
+                &calibration,
+                &inputs,
+                &options.refine,
+                &mut tally,
+            )?;
             for (kind, (_, seconds)) in more {
                 runs.entry(kind).or_insert((0, 0.0)).1 += seconds;
             }
             positions.push(PositionMaps {
                 position: name.clone(),
                 maps: written_maps(&plan, &values, &inputs),
-                extra: BTreeMap::new(),
+                extra: confidence,
             });
         }
     }
@@ -236,6 +269,7 @@ pub fn estimate(
         .iter()
         .map(|(k, (_, s))| (k.name().to_string(), *s))
         .collect();
+    timings.refine_s = tally.seconds;
     timings.total_s = start.elapsed().as_secs_f64();
 
     let mut params = BTreeMap::new();
@@ -284,6 +318,7 @@ pub fn estimate(
             .collect(),
         timings,
         metrics,
+        refine: tally.summary(&options.refine, &plan),
     };
     let out = options.out.clone().unwrap_or_else(|| scan.join("estimate"));
     write_estimate(&out, &positions, &result)?;
@@ -318,6 +353,139 @@ fn run_networks(
         }
     }
     Ok((values, runs))
+}
+
+/// What the refinements of all positions did, together.
+#[derive(Default)]
+struct RefineTally {
+    ran: bool,
+    stops: BTreeMap<StopReason, u64>,
+    notes: Vec<String>,
+    seconds: f64,
+}
+
+impl RefineTally {
+    fn summary(&self, options: &RefineOptions, plan: &Plan) -> Option<RefineSummary> {
+        if !options.enabled() {
+            return None;
+        }
+        let fitted: Vec<String> = [ParamKind::Basecolor, ParamKind::Roughness, ParamKind::Metallic]
+            .into_iter()
+            .filter(|k| *plan.decision(*k) == Decision::Estimate)
+            .map(|k| k.name().to_string())
+            .collect();
+        let mut kept: BTreeMap<String, String> = NOT_FITTED
+            .iter()
+            .map(|(k, why)| (k.to_string(), why.to_string()))
+            .collect();
+        for kind in [ParamKind::Basecolor, ParamKind::Roughness, ParamKind::Metallic] {
+            if *plan.decision(kind) != Decision::Estimate {
+                kept.insert(
+                    kind.name().to_string(),
+                    "given or skipped: held at that value".to_string(),
+                );
+            }
+        }
+        Some(RefineSummary {
+            iterations: options.iterations,
+            illumination: options.illumination,
+            fitted: if self.ran { fitted } else { Vec::new() },
+            kept,
+            stops: StopReason::ALL
+                .iter()
+                .map(|s| (s.name().to_string(), self.stops.get(s).copied().unwrap_or(0)))
+                .collect(),
+            notes: self.notes.clone(),
+        })
+    }
+}
+
+/// Refines basecolor, roughness and metallic of `values` in place when the
+/// options ask for it; the confidence maps of the fitted parameters by file
+/// stem (`<param>_confidence`), empty when it did not run.
+fn refine_values(
+    values: &mut Values,
+    plan: &Plan,
+    bundle: &Bundle,
+    calibration: &ScanCalibration,
+    inputs: &SceneInputs,
+    options: &RefineOptions,
+    tally: &mut RefineTally,
+) -> Result<BTreeMap<String, ScalarRaster>, EstimateError> {
+    let mut extra = BTreeMap::new();
+    if !options.enabled() {
+        return Ok(extra);
+    }
+    let scalar = |k: ParamKind| values.scalar.get(&k);
+    let (Some(basecolor), Some(roughness), Some(metallic), Some(transmission), Some(subsurface)) = (
+        values.basecolor.as_ref(),
+        scalar(ParamKind::Roughness),
+        scalar(ParamKind::Metallic),
+        scalar(ParamKind::Transmission),
+        scalar(ParamKind::Subsurface),
+    ) else {
+        let note = "refinement skipped: it needs all five parameters (run without --only)";
+        if !tally.notes.iter().any(|n| n == note) {
+            tally.notes.push(note.to_string());
+        }
+        return Ok(extra);
+    };
+    let held = |k: ParamKind| *plan.decision(k) != Decision::Estimate;
+    let hold = Hold {
+        basecolor: held(ParamKind::Basecolor),
+        roughness: held(ParamKind::Roughness),
+        metallic: held(ParamKind::Metallic),
+    };
+    let start = Start {
+        basecolor,
+        roughness,
+        metallic,
+        transmission,
+        subsurface,
+        mask: &inputs.mask.data,
+        hold,
+    };
+    let illumination: Option<Vec<Vec<f32>>> = values
+        .illumination
+        .as_ref()
+        .map(|views| views.iter().map(|v| v.iter().map(|&c| uncentre(c)).collect()).collect());
+    let refined = refine_scene(
+        bundle,
+        calibration,
+        inputs,
+        &start,
+        illumination.as_deref(),
+        options,
+    )?;
+    tally.ran = true;
+    tally.seconds += refined.seconds;
+    for (stop, count) in &refined.stops {
+        *tally.stops.entry(*stop).or_insert(0) += count;
+    }
+    for note in refined.notes {
+        if !tally.notes.contains(&note) {
+            tally.notes.push(note);
+        }
+    }
+    let (w, h) = (inputs.width as u32, inputs.height as u32);
+    let mut put = |kind: ParamKind, data: Vec<f32>| {
+        if let Some(map) = ScalarRaster::from_vec(w, h, data) {
+            extra.insert(format!("{}_confidence", kind.name()), map);
+        }
+    };
+    if !hold.basecolor {
+        put(ParamKind::Basecolor, refined.confidence.iter().map(|c| c.basecolor).collect());
+        values.basecolor = Some(refined.basecolor);
+    }
+    if !hold.roughness {
+        put(ParamKind::Roughness, refined.confidence.iter().map(|c| c.roughness).collect());
+        values.scalar.insert(ParamKind::Roughness, refined.roughness);
+    }
+    if !hold.metallic {
+        put(ParamKind::Metallic, refined.confidence.iter().map(|c| c.metallic).collect());
+        values.scalar.insert(ParamKind::Metallic, refined.metallic);
+    }
+    Ok(extra)
 }
 
 /// The views `kind`'s network fuses.

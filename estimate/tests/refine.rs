@@ -5,7 +5,7 @@
 use matscan_estimate::refine::loss::Prior;
 use matscan_estimate::refine::model::{self, directions, Fixed, Observation, Params, N};
 use matscan_estimate::refine::solver::{solve, Problem, Settings, StopReason};
-use matscan_estimate::refine::{refine_pixels, Confidence, RefineOptions, Start};
+use matscan_estimate::refine::{refine_pixels, Confidence, Hold, RefineOptions, Start};
 
 /// (cos N·V, cos N·L, cos V·L) of a small rig: three cameras, each with
 /// two lights beside it and one across, plus mirror configurations that
@@ -176,7 +176,7 @@ fn the_prior_decides_where_there_are_no_data() {
     };
     let x0 = start.to_x();
     let options = RefineOptions::default();
-    let prior = options.prior(x0);
+    let prior = options.prior(x0, &Hold::default());
     let truth = Params {
         basecolor: [0.9, 0.1, 0.1],
         roughness: 0.8,
@@ -219,7 +219,7 @@ fn roughness_confidence_is_low_where_no_highlight_is_ever_seen() {
         ..poor_start()
     };
     let x0 = start.to_x();
-    let prior = options.prior(x0);
+    let prior = options.prior(x0, &Hold::default());
     let run = |highlights: bool| {
         let obs = observe(&truth, &fixed, &rig(highlights));
         let fit = solve(
@@ -258,6 +258,7 @@ fn hostile_pixels_give_finite_maps_and_every_pixel_a_stop_reason() {
         transmission: &zeros,
         subsurface: &zeros,
         mask: &mask,
+        hold: Hold::default(),
     };
     let observe = |i: usize| -> Vec<Observation> {
         let (wo, wi) = directions(0.9, 0.8, -1.0);

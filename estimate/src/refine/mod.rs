@@ -43,6 +43,7 @@ use matscan_scan::{Bundle, ScanError};
 use model::{Fixed, Observation, Params, N};
 use observe::{calibrated_lighting, clip_level, network_lighting, observations, ViewLighting};
 use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::time::Instant;
 
@@ -81,9 +82,9 @@ impl Default for RefineOptions {
             iterations: 0,
             illumination: IlluminationSource::Calibration,
             prior_sigma: PriorSigma {
-                basecolor: 0.2,
-                ln_roughness: 1.0,
-                metallic: 0.35,
+                basecolor: 0.3,
+                ln_roughness: 0.3,
+                metallic: 0.15,
             },
             saturation: 0.99,
             noise_abs: s.noise_abs,
@@ -109,15 +110,17 @@ impl RefineOptions {
         }
     }
 
-    /// The prior centred on `x0`.
-    pub fn prior(&self, x0: [f64; N]) -> Prior {
+    /// The prior centred on `x0`; held parameters get a prior so strong
+    /// that the data cannot move them.
+    pub fn prior(&self, x0: [f64; N], hold: &Hold) -> Prior {
         let s = self.prior_sigma;
+        let held = |h: bool, v: f64| if h { HELD_SIGMA } else { v };
         let sig = [
-            s.basecolor,
-            s.basecolor,
-            s.basecolor,
-            s.ln_roughness,
-            s.metallic,
+            held(hold.basecolor, s.basecolor),
+            held(hold.basecolor, s.basecolor),
+            held(hold.basecolor, s.basecolor),
+            held(hold.roughness, s.ln_roughness),
+            held(hold.metallic, s.metallic),
         ];
         Prior {
             mean: x0,
@@ -125,6 +128,50 @@ impl RefineOptions {
         }
     }
 }
+
+/// Prior standard deviation of a held parameter: 1e-6 solver units.
+const HELD_SIGMA: f64 = 1e-6;
+
+/// Fitted parameters to keep at their start (given by the user, or
+/// skipped): the fit treats them as known.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Hold {
+    pub basecolor: bool,
+    pub roughness: bool,
+    pub metallic: bool,
+}
+
+/// What `result.toml` records of a refinement.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RefineSummary {
+    /// Solver iterations per pixel at most.
+    pub iterations: u32,
+    /// Where the light per pixel came from.
+    pub illumination: IlluminationSource,
+    /// Parameters the fit changed.
+    pub fitted: Vec<String>,
+    /// Parameters kept as the networks (or the user) gave them, and why.
+    pub kept: BTreeMap<String, String>,
+    /// Pixels per stop reason, over every position with maps.
+    pub stops: BTreeMap<String, u64>,
+    /// Views lit from the network or left out, and similar notes.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub notes: Vec<String>,
+}
+
+/// Why transmission and subsurface are never fitted.
+pub const NOT_FITTED: [(&str, &str); 2] = [
+    (
+        "transmission",
+        "the point-light photos barely depend on it and the backlight panel has no pose to \
+         model: the network's value is kept (and enters the model as a fixed input)",
+    ),
+    (
+        "subsurface",
+        "subsurface transport is not local, the per-pixel model cannot reproduce it: the \
+         network's value is kept",
+    ),
+];
 
 /// The refinement could not run.
 #[derive(Debug, thiserror::Error)]
@@ -162,6 +209,8 @@ pub struct Start<'a> {
     pub subsurface: &'a [f32],
     /// Pixels to refine (the reference's object mask).
     pub mask: &'a [bool],
+    /// Parameters not to change.
+    pub hold: Hold,
 }
 
 impl Start<'_> {
@@ -297,7 +346,7 @@ where
                 metallic: at(start.metallic),
             }
             .to_x();
-            let prior = options.prior(x0);
+            let prior = options.prior(x0, &start.hold);
             let mut obs = observe(i);
             // The model renders subsurface as Burley diffuse: the more
             // subsurface, the less its photos are evidence.
