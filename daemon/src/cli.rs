@@ -38,6 +38,10 @@ pub enum Command {
     /// (views, resolution, network width, backend) on a cached simulated
     /// set: a table, and with --out bench.csv and bench.png.
     Bench(crate::bench_cmd::BenchArgs),
+    /// Re-render the scanned object with its estimated material under
+    /// novel lights (--light) or views (--orbit); for simulated scans also
+    /// with the true material, printing PSNR and SSIM per image.
+    Render(crate::render_cmd::RenderArgs),
     /// Bake a scan's estimate into UV textures (SCAN/estimate/texture) and
     /// write the mesh with that material as glTF 2.0 (material.gltf +
     /// material.bin, or --glb), plus principled.md for Blender.
@@ -183,6 +187,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Estimate(a) => crate::estimate_cmd::run(&a),
         Command::Eval(a) => crate::eval_cmd::run(&a),
         Command::Bench(a) => crate::bench_cmd::run(&a),
+        Command::Render(a) => crate::render_cmd::run(&a),
         Command::Export(a) => crate::export_cmd::run(&a),
         Command::Train(a) => crate::train_cmd::run(&a),
         Command::Daemon(a) => {

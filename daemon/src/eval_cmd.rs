@@ -77,6 +77,8 @@ pub struct EvalArgs {
     /// has them).
     #[arg(long)]
     pub per_scene: bool,
+    #[command(flatten)]
+    pub textures: crate::eval_texture::TextureArgs,
 }
 
 /// The scans named by `paths`: each a scan folder itself, or a folder of
@@ -236,8 +238,24 @@ pub fn evaluate_scene(
     group_by: GroupBy,
     baseline: Option<&BTreeMap<ParamKind, f64>>,
 ) -> Result<SceneResult> {
+    evaluate_scene_with(scan, models, options, device, group_by, baseline, &mut |_, _| {})
+}
+
+/// [`evaluate_scene`], handing the estimate's folder and reference
+/// position to `inspect` before the folder is removed (`--textures`
+/// scores the estimate there).
+pub fn evaluate_scene_with(
+    scan: &Path,
+    models: ModelSource,
+    options: &EstimateOptions,
+    device: &Device,
+    group_by: GroupBy,
+    baseline: Option<&BTreeMap<ParamKind, f64>>,
+    inspect: &mut dyn FnMut(&Path, &str),
+) -> Result<SceneResult> {
     let report = estimate(scan, models, options, device)
         .with_context(|| format!("estimating {}", scan.display()))?;
+    inspect(&report.out, &report.result.reference_position);
     let _ = std::fs::remove_dir_all(&report.out);
     let bundle = Bundle::open(scan)?;
     let mut result = SceneResult {
@@ -275,7 +293,7 @@ pub fn views_label(count: usize) -> String {
 }
 
 /// Header of the CSV `--csv` writes.
-pub const CSV_HEADER: &str = "table,views,group,scan,param,scans,mad,mse,psnr,baseline_mad,baseline_mse,baseline_psnr,thesis_mad,seconds";
+pub const CSV_HEADER: &str = "table,views,group,scan,param,scans,mad,mse,psnr,baseline_mad,baseline_mse,baseline_psnr,thesis_mad,seconds,ssim";
 
 /// Runs `matscan eval`.
 pub fn run(args: &EvalArgs) -> Result<()> {
@@ -321,19 +339,25 @@ pub fn run(args: &EvalArgs) -> Result<()> {
     for &count in &args.views {
         let mut results = Vec::new();
         let mut failures = Vec::new();
+        let mut textures = crate::eval_texture::TextureTable::default();
         for (i, scan) in scans.iter().enumerate() {
             let options = EstimateOptions {
                 out: Some(scratch.join(format!("{count}-{i}"))),
                 filter: view_filter(count, views_of[i].as_deref()),
                 ..EstimateOptions::default()
             };
-            match evaluate_scene(
+            match evaluate_scene_with(
                 scan,
                 models(),
                 &options,
                 &device,
                 args.group_by,
                 Some(&baseline),
+                &mut |out, reference| {
+                    if let Some(size) = args.textures.textures {
+                        textures.add_scan(scan, out, reference, size);
+                    }
+                },
             ) {
                 Ok(r) => results.push(r),
                 Err(e) => failures.push(format!("{e:#}")),
@@ -363,6 +387,10 @@ pub fn run(args: &EvalArgs) -> Result<()> {
             let _ = writeln!(table, "  failed: {f}");
         }
         write_csv_rows(&mut csv, count, &rows, &results, &thesis);
+        if let Some(size) = args.textures.textures {
+            textures.write_table(&mut table, size);
+            textures.write_csv(&mut csv, count);
+        }
     }
     print!("{table}");
     if let Some(path) = &args.csv {
@@ -515,7 +543,7 @@ fn write_csv_rows(
             let b = row.baseline.get(&kind);
             let _ = writeln!(
                 csv,
-                "{table},{count},{},,{},{},{},{},{},{},{},{},{},{}",
+                "{table},{count},{},,{},{},{},{},{},{},{},{},{},{},",
                 csv_field(&row.group),
                 kind.name(),
                 m.n,
@@ -535,7 +563,7 @@ fn write_csv_rows(
             let b = r.baseline.get(kind);
             let _ = writeln!(
                 csv,
-                "scene,{count},{},{},{},1,{},{},{},{},{},{},{},{}",
+                "scene,{count},{},{},{},1,{},{},{},{},{},{},{},{},",
                 csv_field(&r.group),
                 csv_field(&r.scan.display().to_string()),
                 kind.name(),

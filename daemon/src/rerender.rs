@@ -326,6 +326,21 @@ pub struct RenderSettings {
     /// Image width; the height follows the reference camera's aspect.
     pub width: u32,
     pub samples: u32,
+    /// Seed of the path tracer's random numbers: keep it when comparing
+    /// materials (see the module's note on noise); change it to measure the
+    /// noise itself.
+    pub seed: u64,
+}
+
+impl RenderSettings {
+    /// `width` px, `samples` per pixel, [`RENDER_SEED`].
+    pub fn new(width: u32, samples: u32) -> Self {
+        RenderSettings {
+            width,
+            samples,
+            seed: RENDER_SEED,
+        }
+    }
 }
 
 /// A rendered shot: linear radiance (exposure 1) and the pixels whose
@@ -399,7 +414,7 @@ pub fn render_shots(
         .then(|| Renderer::with_environment(&scene, sky()));
     let opts = RenderOptions {
         samples: settings.samples,
-        seed: RENDER_SEED,
+        seed: settings.seed,
         ..RenderOptions::default()
     };
     shots
@@ -634,10 +649,7 @@ mod tests {
             &scene.rig.intrinsics,
             &framing,
             &shots(&framing),
-            RenderSettings {
-                width: 32,
-                samples: 8,
-            },
+            RenderSettings::new(32, 8),
         )
         .unwrap()
     }
@@ -740,10 +752,7 @@ mod tests {
                 &scene.rig.intrinsics,
                 &framing,
                 &[shot],
-                RenderSettings {
-                    width: 32,
-                    samples: 4,
-                },
+                RenderSettings::new(32, 4),
             )
             .unwrap()
             .remove(0);

@@ -1,0 +1,297 @@
+//! `matscan render SCAN (--light L,... | --orbit N) --out DIR`: the scanned
+//! object re-rendered with its estimated material under novel lights and
+//! from novel views (see `matscan::rerender` for the lights, views and
+//! material conversion), and, for simulated scans, beside the same images
+//! with the true material and their PSNR and SSIM
+//! (`matscan::image_metrics`).
+//!
+//! Estimated material: the UV textures in `ESTIMATE/texture/` (written by
+//! `matscan export`); where there are none, the estimate's per-position
+//! maps are baked in memory (`matscan_bake::bake_scan`, `--texture-size`).
+//!
+//! True material: the scene's own textures are not in the bundle, so "true"
+//! here is the scan's per-position truth maps (`truth/<position>/*.exr`,
+//! every position that has them) baked into the same UV atlas, at the same
+//! size and with the same fusion and hole filling as the estimate
+//! (`matscan_bake::bake_truth`). It therefore differs from the scene as
+//! simulated where no camera saw the surface (hole-filled), in detail finer
+//! than a camera pixel, and in the subsurface radius (the renderer's
+//! default for both). The comparison isolates the estimator's error from
+//! the baking's.
+//!
+//! Output: `DIR/<view>-<lighting>.exr` (linear float, exposure 1) and
+//! `.png` (8-bit, the tone mapping of `image_metrics`), truth renders under
+//! `DIR/truth/`, and `DIR/metrics.csv`; every file written atomically.
+//!
+//! Boundaries: the command's edge (files, printing); rendering is
+//! `matscan::rerender`'s, baking `matscan_bake`'s.
+
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use matscan::image_metrics::{compare, reinhard, Similarity};
+use matscan::rerender::{
+    material_from_textures, LightName, Lighting, RenderSettings, Rendered, ScanObject,
+};
+use matscan_bake::{bake_scan, bake_truth, read_textures, texture_dir, BakeOptions, BakedTextures};
+use matscan_estimate::output::ResultFile;
+use matscan_scan::atomic::write_atomic;
+use matscan_scan::image_io::{write_preview_png, write_rgb_exr};
+use matscan_scan::{Bundle, Precision, TruthMap};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// The flags of `matscan render`.
+#[derive(Args, Debug)]
+pub struct RenderArgs {
+    /// The scan bundle folder.
+    pub scan: PathBuf,
+    /// Lightings, comma-separated: key-left, key-right, top, rim, camera
+    /// (a light at the camera), none; append `+env` for the environment
+    /// (e.g. `top+env`, `none+env`). Default with --orbit: camera.
+    #[arg(long, value_delimiter = ',', required_unless_present = "orbit")]
+    pub light: Vec<Lighting>,
+    /// Render N views on a circle around the object (at the reference
+    /// camera's distance and elevation) instead of the reference view.
+    #[arg(long, value_name = "N")]
+    pub orbit: Option<usize>,
+    /// Output folder (created; files in it are replaced).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Image width in pixels (the height follows the camera's aspect).
+    #[arg(long, default_value_t = 256)]
+    pub size: u32,
+    /// Path-tracing samples per pixel.
+    #[arg(long, default_value_t = 32)]
+    pub samples: u32,
+    /// The estimate folder (default: SCAN/estimate).
+    #[arg(long, value_name = "DIR")]
+    pub estimate: Option<PathBuf>,
+    /// Texture side when the estimate has no baked textures and is baked
+    /// in memory (and for the truth when it has).
+    #[arg(long, default_value_t = 1024)]
+    pub texture_size: u32,
+}
+
+/// The estimate's textures: the baked files where there are some, else the
+/// per-position maps baked in memory at `bake_size` (the flag says which).
+pub fn estimated_textures(
+    scan: &Path,
+    estimate_dir: &Path,
+    bake_size: u32,
+) -> Result<(BakedTextures, bool)> {
+    let dir = texture_dir(estimate_dir);
+    if dir.join(matscan_bake::textures::COVERAGE_FILE).is_file() {
+        let t = read_textures(&dir).with_context(|| format!("reading {}", dir.display()))?;
+        return Ok((t, false));
+    }
+    let options = BakeOptions {
+        size: bake_size,
+        ..BakeOptions::default()
+    };
+    let t = bake_scan(scan, estimate_dir, &options)
+        .with_context(|| format!("baking the estimate in {}", estimate_dir.display()))?;
+    Ok((t, true))
+}
+
+/// The true textures of a simulated scan, baked as `like` was (same size);
+/// `None` for a scan without truth maps.
+pub fn true_textures(bundle: &Bundle, like: &BakedTextures) -> Result<Option<BakedTextures>> {
+    let has_truth = bundle
+        .manifest
+        .positions
+        .iter()
+        .map(|p| bundle.read_truth(&p.name, &TruthMap::Mask))
+        .collect::<Result<Vec<_>, _>>()?
+        .iter()
+        .any(Option::is_some);
+    if !has_truth {
+        return Ok(None);
+    }
+    let options = BakeOptions {
+        size: like.width(),
+        ..BakeOptions::default()
+    };
+    let t = bake_truth(bundle, &options)
+        .with_context(|| format!("baking the truth maps of {}", bundle.root.display()))?;
+    Ok(Some(t))
+}
+
+/// The estimate's reference position (from `result.toml`), else the
+/// manifest's first position.
+pub fn reference_position(bundle: &Bundle, estimate_dir: &Path) -> Result<String> {
+    let path = estimate_dir.join("result.toml");
+    if let Ok(text) = std::fs::read_to_string(&path) {
+        let result =
+            ResultFile::parse(&text).with_context(|| format!("parsing {}", path.display()))?;
+        return Ok(result.reference_position);
+    }
+    match bundle.manifest.positions.first() {
+        Some(p) => Ok(p.name.clone()),
+        None => bail!(
+            "{}: the manifest has no positions",
+            bundle.manifest_path().display()
+        ),
+    }
+}
+
+/// Writes one render as `<stem>.exr` and `<stem>.png` in `dir`.
+fn write_render(dir: &Path, stem: &str, r: &Rendered) -> Result<()> {
+    let exr = dir.join(format!("{stem}.exr"));
+    write_rgb_exr(&exr, &r.image, Precision::Float)
+        .with_context(|| format!("writing {}", exr.display()))?;
+    let png = dir.join(format!("{stem}.png"));
+    // The preview writer applies the sRGB curve: hand it the Reinhard half.
+    let display = r.image.map(|p| p.map(reinhard));
+    write_preview_png(&png, &display).with_context(|| format!("writing {}", png.display()))?;
+    Ok(())
+}
+
+/// Runs `matscan render`.
+pub fn run(args: &RenderArgs) -> Result<()> {
+    let bundle = Bundle::open(&args.scan)?;
+    let estimate_dir = args
+        .estimate
+        .clone()
+        .unwrap_or_else(|| args.scan.join("estimate"));
+    let reference = reference_position(&bundle, &estimate_dir)?;
+    let object = ScanObject::new(&bundle, &reference)
+        .with_context(|| format!("framing {}", args.scan.display()))?;
+    let lightings = if args.light.is_empty() {
+        vec![Lighting {
+            light: LightName::Camera,
+            environment: false,
+        }]
+    } else {
+        args.light.clone()
+    };
+    if args.orbit == Some(0) {
+        bail!("--orbit 0: expected at least one view");
+    }
+    let shots = object.shots(&lightings, args.orbit);
+    let settings = RenderSettings::new(args.size, args.samples);
+    let (estimated, baked_now) = estimated_textures(&args.scan, &estimate_dir, args.texture_size)?;
+    if baked_now {
+        println!(
+            "no textures in {}; baked the estimate in memory at {} texels (`matscan export` keeps them)",
+            texture_dir(&estimate_dir).display(),
+            estimated.width()
+        );
+    }
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))?;
+    let renders = object
+        .render(&material_from_textures(&estimated), &shots, settings)
+        .context("rendering the estimated material")?;
+    for (shot, r) in shots.iter().zip(&renders) {
+        write_render(&args.out, &shot.name(), r)?;
+    }
+    let Some(truth) = true_textures(&bundle, &estimated)? else {
+        println!(
+            "{} images in {} (no truth: not a simulated scan)",
+            renders.len(),
+            args.out.display()
+        );
+        return Ok(());
+    };
+    let truth_dir = args.out.join("truth");
+    std::fs::create_dir_all(&truth_dir)
+        .with_context(|| format!("creating {}", truth_dir.display()))?;
+    let true_material = material_from_textures(&truth);
+    let true_renders = object
+        .render(&true_material, &shots, settings)
+        .context("rendering the true material")?;
+    for (shot, r) in shots.iter().zip(&true_renders) {
+        write_render(&truth_dir, &shot.name(), r)?;
+    }
+    // The truth again with other random numbers: the score a perfect
+    // estimate would get at this many samples.
+    let reseeded = RenderSettings {
+        seed: settings.seed ^ NOISE_SEED,
+        ..settings
+    };
+    let noise_renders = object
+        .render(&true_material, &shots, reseeded)
+        .context("rendering the true material with another seed")?;
+    let scores: Vec<Score> = shots
+        .iter()
+        .enumerate()
+        .map(|(i, shot)| {
+            let t = &true_renders[i];
+            Score {
+                name: shot.name(),
+                estimate: compare(&renders[i].image, &t.image, &t.mask),
+                noise: compare(&noise_renders[i].image, &t.image, &t.mask),
+            }
+        })
+        .collect();
+    let (table, csv) = score_table(&scores);
+    print!("{table}");
+    let csv_path = args.out.join("metrics.csv");
+    write_atomic(&csv_path, csv.as_bytes())
+        .with_context(|| format!("writing {}", csv_path.display()))?;
+    println!(
+        "{} images and their truth in {}",
+        renders.len(),
+        args.out.display()
+    );
+    Ok(())
+}
+
+/// Mixed into the render seed for the noise-floor renders.
+pub const NOISE_SEED: u64 = 0x9e37_79b9_7f4a_7c15;
+
+/// One image's scores: estimated against true material, and the true
+/// material against itself rendered with other random numbers.
+pub struct Score {
+    pub name: String,
+    pub estimate: Option<Similarity>,
+    pub noise: Option<Similarity>,
+}
+
+/// The printed table and the CSV of per-image scores plus their mean.
+fn score_table(scores: &[Score]) -> (String, String) {
+    let mut table = format!(
+        "estimated vs true material, luminance of tone-mapped renders over the object\n\
+         (noise: the true material against itself with other random numbers, the best score at these samples):\n\
+         {:<28} {:>8} {:>7}   {:>8} {:>7} {:>8}\n",
+        "image", "PSNR dB", "SSIM", "noise dB", "SSIM", "pixels"
+    );
+    let mut csv = String::from("image,psnr,ssim,mad,mse,pixels,noise_psnr,noise_ssim\n");
+    let mut sums = [0.0f64; 4];
+    let mut n = 0usize;
+    for score in scores {
+        let name = &score.name;
+        match (&score.estimate, &score.noise) {
+            (Some(s), Some(z)) => {
+                let _ = writeln!(
+                    table,
+                    "{name:<28} {:>8.2} {:>7.4}   {:>8.2} {:>7.4} {:>8}",
+                    s.psnr, s.ssim, z.psnr, z.ssim, s.pixels
+                );
+                let _ = writeln!(
+                    csv,
+                    "{name},{},{},{},{},{},{},{}",
+                    s.psnr, s.ssim, s.mad, s.mse, s.pixels, z.psnr, z.ssim
+                );
+                for (sum, v) in sums.iter_mut().zip([s.psnr, s.ssim, z.psnr, z.ssim]) {
+                    *sum += v;
+                }
+                n += 1;
+            }
+            _ => {
+                let _ = writeln!(table, "{name:<28}  (the object is not in view)");
+                let _ = writeln!(csv, "{name},,,,,0,,");
+            }
+        }
+    }
+    if n > 0 {
+        let [p, s, zp, zs] = sums.map(|v| v / n as f64);
+        let _ = writeln!(
+            table,
+            "{:<28} {p:>8.2} {s:>7.4}   {zp:>8.2} {zs:>7.4}",
+            "mean"
+        );
+        let _ = writeln!(csv, "mean,{p},{s},,,,{zp},{zs}");
+    }
+    (table, csv)
+}
