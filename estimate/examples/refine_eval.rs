@@ -142,8 +142,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut fitted_net = Vec::new();
     let mut fitted_refined = Vec::new();
     for (k, name) in names.iter().enumerate() {
-        let a: Vec<f64> = rows.iter().map(|r| r.3[k].0).filter(|v| v.is_finite()).collect();
-        let b: Vec<f64> = rows.iter().map(|r| r.3[k].1).filter(|v| v.is_finite()).collect();
+        let a: Vec<f64> = rows
+            .iter()
+            .map(|r| r.3[k].0)
+            .filter(|v| v.is_finite())
+            .collect();
+        let b: Vec<f64> = rows
+            .iter()
+            .map(|r| r.3[k].1)
+            .filter(|v| v.is_finite())
+            .collect();
         println!(
             "{name},{:.4},{:.4},{:.4},{:.4}",
             median(a.clone()),

@@ -369,16 +369,24 @@ impl RefineTally {
         if !options.enabled() {
             return None;
         }
-        let fitted: Vec<String> = [ParamKind::Basecolor, ParamKind::Roughness, ParamKind::Metallic]
-            .into_iter()
-            .filter(|k| *plan.decision(*k) == Decision::Estimate)
-            .map(|k| k.name().to_string())
-            .collect();
+        let fitted: Vec<String> = [
+            ParamKind::Basecolor,
+            ParamKind::Roughness,
+            ParamKind::Metallic,
+        ]
+        .into_iter()
+        .filter(|k| *plan.decision(*k) == Decision::Estimate)
+        .map(|k| k.name().to_string())
+        .collect();
         let mut kept: BTreeMap<String, String> = NOT_FITTED
             .iter()
             .map(|(k, why)| (k.to_string(), why.to_string()))
             .collect();
-        for kind in [ParamKind::Basecolor, ParamKind::Roughness, ParamKind::Metallic] {
+        for kind in [
+            ParamKind::Basecolor,
+            ParamKind::Roughness,
+            ParamKind::Metallic,
+        ] {
             if *plan.decision(kind) != Decision::Estimate {
                 kept.insert(
                     kind.name().to_string(),
@@ -393,7 +401,12 @@ impl RefineTally {
             kept,
             stops: StopReason::ALL
                 .iter()
-                .map(|s| (s.name().to_string(), self.stops.get(s).copied().unwrap_or(0)))
+                .map(|s| {
+                    (
+                        s.name().to_string(),
+                        self.stops.get(s).copied().unwrap_or(0),
+                    )
+                })
                 .collect(),
             notes: self.notes.clone(),
         })
@@ -445,10 +458,12 @@ fn refine_values(
         mask: &inputs.mask.data,
         hold,
     };
-    let illumination: Option<Vec<Vec<f32>>> = values
-        .illumination
-        .as_ref()
-        .map(|views| views.iter().map(|v| v.iter().map(|&c| uncentre(c)).collect()).collect());
+    let illumination: Option<Vec<Vec<f32>>> = values.illumination.as_ref().map(|views| {
+        views
+            .iter()
+            .map(|v| v.iter().map(|&c| uncentre(c)).collect())
+            .collect()
+    });
     let refined = refine_scene(
         bundle,
         calibration,
@@ -474,15 +489,26 @@ fn refine_values(
         }
     };
     if !hold.basecolor {
-        put(ParamKind::Basecolor, refined.confidence.iter().map(|c| c.basecolor).collect());
+        put(
+            ParamKind::Basecolor,
+            refined.confidence.iter().map(|c| c.basecolor).collect(),
+        );
         values.basecolor = Some(refined.basecolor);
     }
     if !hold.roughness {
-        put(ParamKind::Roughness, refined.confidence.iter().map(|c| c.roughness).collect());
-        values.scalar.insert(ParamKind::Roughness, refined.roughness);
+        put(
+            ParamKind::Roughness,
+            refined.confidence.iter().map(|c| c.roughness).collect(),
+        );
+        values
+            .scalar
+            .insert(ParamKind::Roughness, refined.roughness);
     }
     if !hold.metallic {
-        put(ParamKind::Metallic, refined.confidence.iter().map(|c| c.metallic).collect());
+        put(
+            ParamKind::Metallic,
+            refined.confidence.iter().map(|c| c.metallic).collect(),
+        );
         values.scalar.insert(ParamKind::Metallic, refined.metallic);
     }
     Ok(extra)
