@@ -218,6 +218,13 @@ impl TextureTable {
         }
     }
 
+    /// The render sums in [`SHOTS`] order (any other name after them).
+    fn ordered_renders(&self) -> Vec<(&String, &[f64; 7])> {
+        let mut rows: Vec<_> = self.renders.iter().collect();
+        rows.sort_by_key(|(name, _)| SHOTS.iter().position(|s| s == name).unwrap_or(SHOTS.len()));
+        rows
+    }
+
     /// Appends the two tables (texture error per parameter, re-render
     /// scores per image) to `table`.
     pub fn write_table(&self, table: &mut String, size: u32) {
@@ -252,7 +259,7 @@ impl TextureTable {
         );
         let mut mean = [0.0f64; 4];
         let mut k = 0.0;
-        for (name, [_, _, p, s, zp, zs, n]) in &self.renders {
+        for (name, [_, _, p, s, zp, zs, n]) in self.ordered_renders() {
             let row = [p / n, s / n, zp / n, zs / n];
             let _ = writeln!(
                 table,
@@ -294,7 +301,7 @@ impl TextureTable {
                 csv_number(Some(psnr / n)),
             );
         }
-        for (name, [mad, mse, psnr, ssim, zp, zs, n]) in &self.renders {
+        for (name, [mad, mse, psnr, ssim, zp, zs, n]) in self.ordered_renders() {
             let _ = writeln!(
                 csv,
                 "render,{views},ALL,,{name},{n},{},{},{},,,,,,{}",
