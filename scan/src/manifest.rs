@@ -233,7 +233,20 @@ impl Manifest {
     /// errors and warnings. Returns the manifest and one warning per key the
     /// format does not know (each also logged with `tracing::warn!`).
     pub fn parse(text: &str, path: &Path) -> Result<(Manifest, Vec<String>), ScanError> {
-        parse::parse(text, path)
+        parse::parse(text, path, parse::Captures::Required)
+    }
+
+    /// Parses a rig calibration file: the same format and rules, except
+    /// that positions need no captures (the rig's geometry and lights,
+    /// before any photo is taken).
+    pub fn parse_rig(text: &str, path: &Path) -> Result<(Manifest, Vec<String>), ScanError> {
+        parse::parse(text, path, parse::Captures::Optional)
+    }
+
+    /// Reads a rig calibration file (see [`Manifest::parse_rig`]).
+    pub fn read_rig(path: &Path) -> Result<(Manifest, Vec<String>), ScanError> {
+        let text = std::fs::read_to_string(path).map_err(|e| ScanError::io(path, e))?;
+        Self::parse_rig(&text, path)
     }
 
     /// Reads and validates a `scan.toml` file (see [`Manifest::parse`]).

@@ -716,3 +716,24 @@ fn read_names_the_file_it_could_not_open() {
     let msg = Manifest::read(path).unwrap_err().to_string();
     assert!(msg.starts_with("/nonexistent/scan.toml: "), "{msg}");
 }
+
+#[test]
+fn a_rig_calibration_needs_no_captures_but_a_scan_does() {
+    let (m, _) = parse(VALID).unwrap();
+    let mut rig = m.clone();
+    for p in &mut rig.positions {
+        p.captures.clear();
+    }
+    let text = rig.to_toml();
+    let path = Path::new("rig.toml");
+    let (parsed, warnings) = Manifest::parse_rig(&text, path).unwrap();
+    assert!(warnings.is_empty(), "{warnings:?}");
+    assert_eq!(parsed.positions.len(), m.positions.len());
+    assert_eq!(parsed.positions[0].lights, m.positions[0].lights);
+    assert!(parsed.positions.iter().all(|p| p.captures.is_empty()));
+    let e = Manifest::parse(&text, path).unwrap_err().to_string();
+    assert!(e.contains("expected an ambient capture"), "{e}");
+    // Captures in a rig file are still checked.
+    let (full, _) = Manifest::parse_rig(VALID, path).unwrap();
+    assert_eq!(full, m);
+}

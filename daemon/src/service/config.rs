@@ -76,11 +76,45 @@ impl Default for EstimateSettings {
 #[derive(Debug, Clone, PartialEq)]
 pub enum RigChoice {
     Simulated(SimulatedRigConfig),
+    Hardware(HardwareRigConfig),
+}
+
+/// The real rig (see [`super::hardware`]): device paths, the capture size,
+/// and the files that give its geometry.
+#[derive(Debug, Clone, PartialEq)]
+pub struct HardwareRigConfig {
+    /// V4L2 device; prefer `/dev/v4l/by-id/...` (stable across boots).
+    pub camera: String,
+    /// Capture size in pixels; must match the calibrated intrinsics.
+    pub width: u32,
+    pub height: u32,
+    /// Exposure of every photo, seconds.
+    pub exposure_s: f32,
+    /// The light controller's serial port (`/dev/serial/by-id/...`).
+    pub lights: String,
+    pub baud: u32,
+    /// The footswitch's evdev node (`/dev/input/by-id/...-event-kbd`).
+    pub footswitch: String,
+    /// Key codes that count as a press; empty: any key.
+    pub footswitch_keys: Vec<u16>,
+    /// The rig calibration file: a scan manifest without captures.
+    pub calibration: PathBuf,
+    /// Where the scanner software exports the object's mesh (re-read at
+    /// every capture).
+    pub mesh: PathBuf,
 }
 
 impl RigChoice {
     pub fn describe(&self) -> String {
         match self {
+            RigChoice::Hardware(h) => format!(
+                "hardware (camera {}, lights {}, footswitch {}, calibration {}, mesh {})",
+                h.camera,
+                h.lights,
+                h.footswitch,
+                h.calibration.display(),
+                h.mesh.display()
+            ),
             RigChoice::Simulated(s) => format!(
                 "simulated ({} scene, {} on {}, {} positions, {}x{} px, {})",
                 s.kind,
@@ -182,6 +216,23 @@ struct RawConfig {
     #[serde(default)]
     estimate: RawEstimate,
     simulated: Option<RawSimulated>,
+    hardware: Option<RawHardware>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawHardware {
+    camera: Option<String>,
+    width: Option<u32>,
+    height: Option<u32>,
+    exposure_s: Option<f32>,
+    lights: Option<String>,
+    baud: Option<u32>,
+    footswitch: Option<String>,
+    #[serde(default)]
+    footswitch_keys: Vec<u16>,
+    calibration: Option<PathBuf>,
+    mesh: Option<PathBuf>,
 }
 
 #[derive(Debug, Default, Deserialize)]
@@ -255,13 +306,21 @@ impl Config {
             "simulated" => {
                 RigChoice::Simulated(simulated(raw.simulated.unwrap_or_default(), &invalid)?)
             }
+            "hardware" => RigChoice::Hardware(hardware(
+                raw.hardware.ok_or_else(|| {
+                    invalid(
+                        "hardware",
+                        "rig = \"hardware\" needs a [hardware] table (camera, lights, \
+                         footswitch, calibration, mesh)"
+                            .into(),
+                    )
+                })?,
+                &invalid,
+            )?),
             other => {
                 return Err(invalid(
                     "rig",
-                    format!(
-                        "unknown rig `{other}`: expected \"simulated\" (real rigs are not \
-                         wired into the daemon yet)"
-                    ),
+                    format!("unknown rig `{other}`: expected \"simulated\" or \"hardware\""),
                 ))
             }
         };
@@ -367,6 +426,69 @@ impl Config {
     }
 }
 
+fn hardware(
+    raw: RawHardware,
+    invalid: &dyn Fn(&str, String) -> ConfigError,
+) -> Result<HardwareRigConfig, ConfigError> {
+    let required = |value: Option<String>, key: &str, what: &str| {
+        value.filter(|v| !v.trim().is_empty()).ok_or_else(|| {
+            invalid(
+                &format!("hardware.{key}"),
+                format!("missing: expected {what}"),
+            )
+        })
+    };
+    let camera = required(raw.camera, "camera", "the camera's V4L2 device path")?;
+    let lights = required(raw.lights, "lights", "the light controller's serial port")?;
+    let footswitch = required(raw.footswitch, "footswitch", "the footswitch's evdev node")?;
+    let calibration = raw.calibration.ok_or_else(|| {
+        invalid(
+            "hardware.calibration",
+            "missing: expected the rig calibration file (a scan manifest)".into(),
+        )
+    })?;
+    let mesh = raw.mesh.ok_or_else(|| {
+        invalid(
+            "hardware.mesh",
+            "missing: expected the path the scanner software exports the mesh to".into(),
+        )
+    })?;
+    let (width, height) = match (raw.width, raw.height) {
+        (Some(w), Some(h)) if (8..=16384).contains(&w) && (8..=16384).contains(&h) => (w, h),
+        (Some(w), Some(h)) => {
+            return Err(invalid(
+                "hardware.width",
+                format!("{w}x{h}: expected 8 to 16384 pixels each"),
+            ))
+        }
+        _ => {
+            return Err(invalid(
+                "hardware.width",
+                "missing: expected width and height of the photos".into(),
+            ))
+        }
+    };
+    let exposure_s = raw.exposure_s.unwrap_or(0.02);
+    if !(exposure_s.is_finite() && exposure_s > 0.0 && exposure_s <= 10.0) {
+        return Err(invalid(
+            "hardware.exposure_s",
+            format!("{exposure_s}: expected seconds in (0, 10]"),
+        ));
+    }
+    Ok(HardwareRigConfig {
+        camera,
+        width,
+        height,
+        exposure_s,
+        lights,
+        baud: raw.baud.unwrap_or(115_200),
+        footswitch,
+        footswitch_keys: raw.footswitch_keys,
+        calibration,
+        mesh,
+    })
+}
+
 fn simulated(
     raw: RawSimulated,
     invalid: &dyn Fn(&str, String) -> ConfigError,
@@ -449,7 +571,9 @@ mod tests {
         assert_eq!(c.default_profile, FULL_PROFILE);
         assert_eq!(c.capture, CaptureSettings::default());
         assert_eq!(c.estimate, EstimateSettings::default());
-        let RigChoice::Simulated(s) = &c.rig;
+        let RigChoice::Simulated(s) = &c.rig else {
+            panic!("not simulated: {:?}", c.rig);
+        };
         assert_eq!(
             (s.size, s.positions, s.samples, s.turntable),
             (64, 2, 4, true)
@@ -472,6 +596,17 @@ mod tests {
     fn errors_name_the_file_and_the_key() {
         let cases = [
             ("rig = \"v4l2\"", "`rig`: unknown rig `v4l2`"),
+            ("rig = \"hardware\"", "`hardware`: rig = \"hardware\" needs a [hardware]"),
+            (
+                "rig = \"hardware\"\n[hardware]\ncamera = \"/dev/video0\"",
+                "`hardware.lights`: missing",
+            ),
+            (
+                "rig = \"hardware\"\n[hardware]\ncamera = \"/dev/video0\"\nlights = \"/dev/ttyACM0\"\n\
+                 footswitch = \"/dev/input/event3\"\ncalibration = \"/etc/matscan/rig.toml\"\n\
+                 mesh = \"/x.ply\"\nwidth = 1920",
+                "`hardware.width`: missing",
+            ),
             ("rig = \"simulated\"\nbusy = \"drop\"", "`busy`: `drop`"),
             (
                 "rig = \"simulated\"\n[profiles.x]\ngiven = [\"shininess\"]",
@@ -504,5 +639,28 @@ mod tests {
             assert!(e.starts_with("matscan.toml: "), "{e}");
             assert!(e.contains(want), "{text:?}: {e}");
         }
+    }
+
+    #[test]
+    fn a_hardware_rig_takes_its_paths_and_documented_defaults() {
+        let c = parse(
+            "rig = \"hardware\"\n[hardware]\ncamera = \"/dev/v4l/by-id/cam\"\n\
+             lights = \"/dev/serial/by-id/lights\"\nfootswitch = \"/dev/input/by-id/fs\"\n\
+             calibration = \"/etc/matscan/rig.toml\"\nmesh = \"/var/lib/matscan/object.ply\"\n\
+             width = 1920\nheight = 1080\nfootswitch_keys = [30]",
+        )
+        .unwrap();
+        let RigChoice::Hardware(h) = &c.rig else {
+            panic!("not hardware: {:?}", c.rig);
+        };
+        assert_eq!(h.camera, "/dev/v4l/by-id/cam");
+        assert_eq!((h.width, h.height, h.baud), (1920, 1080, 115_200));
+        assert_eq!(h.exposure_s, 0.02);
+        assert_eq!(h.footswitch_keys, vec![30]);
+        assert_eq!(h.mesh, PathBuf::from("/var/lib/matscan/object.ply"));
+        assert!(c
+            .rig
+            .describe()
+            .starts_with("hardware (camera /dev/v4l/by-id/cam"));
     }
 }

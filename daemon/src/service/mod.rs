@@ -4,7 +4,9 @@
 //! - [`plan`]: the capture plan from a profile;
 //! - [`sequencer`]: carries a plan out on the rig's drivers and publishes
 //!   the scan bundle atomically;
-//! - [`rig`]: opens the configured rig (the simulated one, for now);
+//! - [`rig`]: opens the configured rig (simulated, or [`hardware`]: V4L2
+//!   camera, serial lights, evdev footswitch, rig calibration file and the
+//!   scanner's mesh export);
 //! - [`server`]: the daemon's life (socket, capture thread, stop);
 //! - [`socket`]: the control protocol (`docs/daemon-protocol.md`);
 //! - [`state`]: the queue and the jobs, shared between threads;
@@ -14,6 +16,7 @@
 //! Boundaries: no estimation here; the worker is where it plugs in.
 
 pub mod config;
+pub mod hardware;
 pub mod notify;
 pub mod plan;
 pub mod rig;

@@ -1,7 +1,10 @@
 //! The capture plan: which photos to take at each position, from a profile
-//! (which parameters are given rather than estimated). Captures nobody will
-//! use are left out, each with the reason: no backlit photo when
-//! transmission is given, no checkerboards when subsurface is given.
+//! (which parameters are given rather than estimated) and what the rig has.
+//! Captures nobody will use or the rig cannot take are left out, each with
+//! the reason: no backlit photo when transmission is given or the rig has
+//! no backlight panel, no checkerboards when subsurface is given, no
+//! projector photos on a rig without a projector. The estimator then skips
+//! the parameters those photos would have served, with its own reason.
 //!
 //! Boundaries: pure data; the sequencer (`super::sequencer`) carries it
 //! out.
@@ -49,9 +52,29 @@ pub struct CapturePlan {
     pub left_out: Vec<String>,
 }
 
-/// The plan for `profile`; `checker_periods` are the small and large
-/// checkerboard periods in projector pixels (even, at least 2).
-pub fn plan(profile: &Profile, checker_periods: (NonZeroU32, NonZeroU32)) -> CapturePlan {
+/// What the rig has beyond its camera and two flashes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Capabilities {
+    pub projector: bool,
+    pub backlight: bool,
+}
+
+impl Capabilities {
+    /// Projector and backlight panel: every capture of the thesis.
+    pub const FULL: Capabilities = Capabilities {
+        projector: true,
+        backlight: true,
+    };
+}
+
+/// The plan for `profile` on a rig with `rig`; `checker_periods` are the
+/// small and large checkerboard periods in projector pixels (even, at
+/// least 2).
+pub fn plan(
+    profile: &Profile,
+    checker_periods: (NonZeroU32, NonZeroU32),
+    rig: Capabilities,
+) -> CapturePlan {
     let mut captures = vec![PlannedCapture {
         name: "ambient".into(),
         step: Step::Ambient,
@@ -62,13 +85,22 @@ pub fn plan(profile: &Profile, checker_periods: (NonZeroU32, NonZeroU32)) -> Cap
             step: Step::Flash(light),
         });
     }
-    captures.push(PlannedCapture {
-        name: "projector".into(),
-        step: Step::ProjectorUniform(Level::new(0.5).unwrap_or(Level::FULL)),
-    });
     let mut left_out = Vec::new();
+    if rig.projector {
+        captures.push(PlannedCapture {
+            name: "projector".into(),
+            step: Step::ProjectorUniform(Level::new(0.5).unwrap_or(Level::FULL)),
+        });
+    } else {
+        left_out.push("projector: this rig has no projector".to_string());
+    }
     if profile.given.contains(&Param::Transmission) {
         left_out.push("backlight: transmission is given".to_string());
+    } else if !rig.backlight {
+        left_out.push(
+            "backlight: this rig has no backlight panel (transmission cannot be estimated)"
+                .to_string(),
+        );
     } else {
         captures.push(PlannedCapture {
             name: "backlight".into(),
@@ -77,6 +109,10 @@ pub fn plan(profile: &Profile, checker_periods: (NonZeroU32, NonZeroU32)) -> Cap
     }
     if profile.given.contains(&Param::Subsurface) {
         left_out.push("checkerboards: subsurface is given".to_string());
+    } else if !rig.projector {
+        left_out.push(
+            "checkerboards: this rig has no projector (subsurface cannot be estimated)".to_string(),
+        );
     } else {
         let (small, large) = checker_periods;
         for period in [small, large] {
@@ -108,7 +144,7 @@ mod tests {
 
     #[test]
     fn full_profile_takes_every_capture_ambient_first() {
-        let p = plan(&Profile::default(), periods());
+        let p = plan(&Profile::default(), periods(), Capabilities::FULL);
         assert_eq!(
             names(&p),
             [
@@ -131,16 +167,60 @@ mod tests {
         let given = |ps: &[Param]| Profile {
             given: ps.iter().copied().collect(),
         };
-        let p = plan(&given(&[Param::Transmission]), periods());
+        let p = plan(
+            &given(&[Param::Transmission]),
+            periods(),
+            Capabilities::FULL,
+        );
         assert!(!names(&p).contains(&"backlight"));
         assert!(names(&p).contains(&"checker_8"));
         assert_eq!(p.left_out, ["backlight: transmission is given"]);
 
-        let p = plan(&given(&[Param::Subsurface, Param::Transmission]), periods());
+        let p = plan(
+            &given(&[Param::Subsurface, Param::Transmission]),
+            periods(),
+            Capabilities::FULL,
+        );
         assert_eq!(names(&p), ["ambient", "flash0", "flash1", "projector"]);
         assert_eq!(p.left_out.len(), 2);
 
-        let p = plan(&given(&[Param::Roughness]), periods());
+        let p = plan(&given(&[Param::Roughness]), periods(), Capabilities::FULL);
         assert_eq!(p.captures.len(), 7, "lit captures serve every parameter");
+    }
+
+    #[test]
+    fn a_rig_without_projector_or_backlight_drops_their_photos_with_the_reason() {
+        let no_projector = Capabilities {
+            projector: false,
+            backlight: true,
+        };
+        let p = plan(&Profile::default(), periods(), no_projector);
+        assert_eq!(names(&p), ["ambient", "flash0", "flash1", "backlight"]);
+        assert_eq!(
+            p.left_out,
+            [
+                "projector: this rig has no projector",
+                "checkerboards: this rig has no projector (subsurface cannot be estimated)"
+            ]
+        );
+        let bare = Capabilities {
+            projector: false,
+            backlight: false,
+        };
+        let p = plan(&Profile::default(), periods(), bare);
+        assert_eq!(names(&p), ["ambient", "flash0", "flash1"]);
+        assert!(
+            p.left_out[1].contains("no backlight panel"),
+            "{:?}",
+            p.left_out
+        );
+        // A given parameter's reason wins: nobody needs the photo anyway.
+        let given = Profile {
+            given: [Param::Transmission].into_iter().collect(),
+        };
+        let p = plan(&given, periods(), bare);
+        assert!(p
+            .left_out
+            .contains(&"backlight: transmission is given".to_string()));
     }
 }

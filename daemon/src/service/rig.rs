@@ -1,4 +1,5 @@
-//! Opens the configured rig: for `rig = "simulated"`, a scene generated
+//! Opens the configured rig: for `rig = "hardware"`, the real drivers (see
+//! [`super::hardware`]); for `rig = "simulated"`, a scene generated
 //! from the config's seed behind the drivers' simulated rig, whose
 //! geometry and calibration come from that same scene, and whose material
 //! becomes the scan's truth maps (so estimates of simulated scans report
@@ -7,6 +8,7 @@
 //! Boundaries: builds a [`Rig`]; takes no photo.
 
 use super::config::{RigChoice, SimulatedRigConfig};
+use super::hardware::HardwareError;
 use super::sequencer::{PositionGeometry, Rig, RigGeometry, TruthSource};
 use matscan_drivers::serial::BoardFaults;
 use matscan_drivers::sim_rig::{SimConfig, SimFaults, SimulatedRig};
@@ -17,9 +19,10 @@ use matscan_sim::scene::{generate, rig_to_manifest_lights, GeometrySource, Scene
 use std::num::NonZeroU32;
 
 /// Opens the rig `choice` names.
-pub fn open(choice: &RigChoice) -> Result<Rig, DriverError> {
+pub fn open(choice: &RigChoice) -> Result<Rig, HardwareError> {
     match choice {
-        RigChoice::Simulated(c) => open_simulated(c),
+        RigChoice::Simulated(c) => Ok(open_simulated(c)?),
+        RigChoice::Hardware(c) => super::hardware::open(c),
     }
 }
 
@@ -69,7 +72,7 @@ fn open_simulated(c: &SimulatedRigConfig) -> Result<Rig, DriverError> {
     Ok(Rig {
         camera: Box::new(rig.camera),
         lights: Box::new(rig.lights),
-        projector: Box::new(rig.projector),
+        projector: Some(Box::new(rig.projector)),
         positioner,
         trigger,
         disk: Some(Box::new(rig.disk)),

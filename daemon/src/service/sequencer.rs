@@ -13,7 +13,7 @@
 //! Boundaries: knows the driver traits and the bundle writer; where the
 //! geometry and calibration come from is the caller's ([`RigGeometry`]).
 
-use super::plan::{CapturePlan, Step};
+use super::plan::{Capabilities, CapturePlan, Step};
 use matscan_drivers::{
     monotonic_now, Camera, CameraSettings, DriverError, LightController, LightId, Positioner,
     Projector, ProjectorPattern, Trigger,
@@ -71,7 +71,9 @@ pub trait TruthSource {
 pub struct Rig {
     pub camera: Box<dyn Camera>,
     pub lights: Box<dyn LightController>,
-    pub projector: Box<dyn Projector>,
+    /// `None`: a rig without projector (the plan then takes no projector
+    /// photo, see [`Rig::capabilities`]).
+    pub projector: Option<Box<dyn Projector>>,
     /// `None`: the operator moves the object and presses `trigger`.
     pub positioner: Option<Box<dyn Positioner>>,
     pub trigger: Option<Box<dyn Trigger>>,
@@ -170,8 +172,10 @@ impl Rig {
         if let Err(e) = self.lights.all_off() {
             tracing::warn!("switching the lights off after the capture: {e}");
         }
-        if let Err(e) = self.projector.show(ProjectorPattern::Black) {
-            tracing::warn!("blanking the projector after the capture: {e}");
+        if let Some(projector) = self.projector.as_mut() {
+            if let Err(e) = projector.show(ProjectorPattern::Black) {
+                tracing::warn!("blanking the projector after the capture: {e}");
+            }
         }
         result
     }
@@ -192,7 +196,9 @@ impl Rig {
         }
         let writer = BundleWriter::create(target)?;
         self.lights.all_off()?;
-        self.projector.show(ProjectorPattern::Black)?;
+        if let Some(projector) = self.projector.as_mut() {
+            projector.show(ProjectorPattern::Black)?;
+        }
         self.home()?;
         let total = count * plan.captures.len();
         let mut positions = Vec::with_capacity(count);
@@ -395,12 +401,12 @@ impl Rig {
                     self.lights.off(LightId::Backlight)?
                 }
             }
-            Step::ProjectorUniform(level) => self.projector.show(if on {
+            Step::ProjectorUniform(level) => self.projector()?.show(if on {
                 ProjectorPattern::Uniform(level)
             } else {
                 ProjectorPattern::Black
             })?,
-            Step::Checker(c) => self.projector.show(if on {
+            Step::Checker(c) => self.projector()?.show(if on {
                 ProjectorPattern::Checker(c)
             } else {
                 ProjectorPattern::Black
@@ -421,8 +427,39 @@ impl Rig {
 
     fn device_of(&self, step: &Step) -> String {
         match step {
-            Step::ProjectorUniform(_) | Step::Checker(_) => self.projector.id().to_string(),
+            Step::ProjectorUniform(_) | Step::Checker(_) => self
+                .projector
+                .as_ref()
+                .map_or_else(|| "projector".to_string(), |p| p.id().to_string()),
             _ => self.lights.id().to_string(),
+        }
+    }
+
+    /// The projector, or an error naming the plan's mistake: a plan made
+    /// for [`Rig::capabilities`] never asks a rig without one.
+    fn projector(&mut self) -> Result<&mut Box<dyn Projector>, DriverError> {
+        self.projector
+            .as_mut()
+            .ok_or_else(|| DriverError::InvalidSetting {
+                device: "projector".to_string(),
+                reason: "this rig has no projector, but the capture plan asks for one".to_string(),
+            })
+    }
+
+    /// What the rig can capture: a projector photo needs a projector driver
+    /// and a projector among the calibrated lights; a backlit photo needs a
+    /// backlight panel among them.
+    pub fn capabilities(&self) -> Capabilities {
+        let has = |want: fn(&matscan_scan::LightKind) -> bool| {
+            self.geometry
+                .positions
+                .iter()
+                .all(|p| p.lights.iter().any(|l| want(&l.kind)))
+        };
+        Capabilities {
+            projector: self.projector.is_some()
+                && has(|k| matches!(k, matscan_scan::LightKind::Projector { .. })),
+            backlight: has(|k| matches!(k, matscan_scan::LightKind::Backlight)),
         }
     }
 

@@ -286,7 +286,12 @@ fn run_job(
     let Some(r) = rig.as_mut() else {
         return Err("the rig is not open".into());
     };
-    let plan = plan(&profile, r.geometry.checker_periods);
+    if let super::config::RigChoice::Hardware(h) = &config.rig {
+        // The scanner software exports each new object's mesh to the same
+        // path before the press.
+        r.geometry.mesh = super::hardware::read_mesh(&h.mesh).map_err(|e| e.to_string())?;
+    }
+    let plan = plan(&profile, r.geometry.checker_periods, r.capabilities());
     let target = next_scan_path(&config.scans).map_err(|e| e.to_string())?;
     let given: Vec<&str> = profile.given.iter().map(|p| p.name()).collect();
     let info = format!(

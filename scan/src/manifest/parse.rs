@@ -11,7 +11,21 @@ use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 use toml::{Table, Value};
 
-pub(super) fn parse(text: &str, path: &Path) -> Result<(Manifest, Vec<String>), ScanError> {
+/// What a manifest must contain beyond its geometry.
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub(super) enum Captures {
+    /// A scan: every position has an ambient capture.
+    Required,
+    /// A rig calibration: geometry and lights only; captures, where
+    /// present, are still validated.
+    Optional,
+}
+
+pub(super) fn parse(
+    text: &str,
+    path: &Path,
+    rule: Captures,
+) -> Result<(Manifest, Vec<String>), ScanError> {
     let table: Table = text
         .parse()
         .map_err(|e: toml::de::Error| ScanError::format(path, format!("not valid TOML: {e}")))?;
@@ -53,7 +67,7 @@ pub(super) fn parse(text: &str, path: &Path) -> Result<(Manifest, Vec<String>), 
     }
     let mut positions: Vec<Position> = Vec::with_capacity(position_fields.len());
     for mut fields in position_fields {
-        let position = position(&mut fields, &mut warnings)?;
+        let position = position(&mut fields, &mut warnings, rule)?;
         if positions.iter().any(|p| p.name == position.name) {
             return Err(fields.error(
                 "name",
@@ -158,7 +172,11 @@ fn matrix(f: &mut Fields<'_>, name: &'static str) -> Result<DMat4, ScanError> {
     Ok(mat4_from_row_major(&m))
 }
 
-fn position(f: &mut Fields<'_>, warnings: &mut Vec<String>) -> Result<Position, ScanError> {
+fn position(
+    f: &mut Fields<'_>,
+    warnings: &mut Vec<String>,
+    rule: Captures,
+) -> Result<Position, ScanError> {
     let name = f.string("name")?;
     check_folder_name(f, "name", &name, "position")?;
     let camera_to_world = matrix(f, "camera_to_world")?;
@@ -194,7 +212,7 @@ fn position(f: &mut Fields<'_>, warnings: &mut Vec<String>) -> Result<Position, 
         cf.finish(warnings);
         captures.push(c);
     }
-    if !captures.iter().any(|c| c.lights.is_empty()) {
+    if rule == Captures::Required && !captures.iter().any(|c| c.lights.is_empty()) {
         return Err(f.error(
             "capture",
             "expected an ambient capture (lights = [], no pattern): every position needs one",

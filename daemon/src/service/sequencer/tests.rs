@@ -30,7 +30,7 @@ fn settings() -> RunSettings {
 }
 
 fn run(rig: &mut Rig, profile: &Profile, target: &Path) -> Result<CaptureOutcome, CaptureError> {
-    let plan = plan(profile, rig.geometry.checker_periods);
+    let plan = plan(profile, rig.geometry.checker_periods, rig.capabilities());
     let mut seen = Vec::new();
     let out = rig.capture(
         &plan,
@@ -142,7 +142,9 @@ fn a_dead_flash_is_retried_then_fails_naming_it_and_publishes_nothing() {
 #[test]
 fn without_a_turntable_the_sequencer_waits_for_the_operators_press() {
     let dir = tempfile::tempdir().unwrap();
-    let RigChoice::Simulated(c) = sim(2, false, FaultConfig::default());
+    let RigChoice::Simulated(c) = sim(2, false, FaultConfig::default()) else {
+        unreachable!("sim() makes a simulated rig");
+    };
     let scene = matscan_sim::scene::generate(&matscan_sim::scene::SceneOptions {
         seed: c.seed,
         kind: c.kind,
@@ -168,7 +170,7 @@ fn without_a_turntable_the_sequencer_waits_for_the_operators_press() {
     let mut rig = Rig {
         camera: Box::new(sim_rig.camera),
         lights: Box::new(sim_rig.lights),
-        projector: Box::new(sim_rig.projector),
+        projector: Some(Box::new(sim_rig.projector)),
         positioner: None,
         trigger: Some(Box::new(sim_rig.trigger)),
         disk: None,
@@ -198,7 +200,11 @@ fn without_a_turntable_the_sequencer_waits_for_the_operators_press() {
 fn without_a_press_the_capture_times_out_naming_the_footswitch() {
     let dir = tempfile::tempdir().unwrap();
     let mut rig = crate::service::rig::open(&sim(2, false, FaultConfig::default())).unwrap();
-    let plan = plan(&Profile::default(), rig.geometry.checker_periods);
+    let plan = plan(
+        &Profile::default(),
+        rig.geometry.checker_periods,
+        rig.capabilities(),
+    );
     let s = RunSettings {
         operator_timeout: Duration::from_millis(300),
         ..settings()

@@ -1,0 +1,349 @@
+//! `rig = "hardware"`: the real drivers behind the sequencer's traits — a
+//! V4L2 camera, the serial light controller (two flashes and the backlight
+//! panel), an evdev footswitch — and the rig's geometry from files the
+//! scanner PC keeps: a rig calibration file and the object's mesh as the
+//! 3D scanner's software exports it.
+//!
+//! The rig calibration file is a scan manifest (`scan.toml` of the scan
+//! format) without captures: `units`, `[camera]` intrinsics and one
+//! `[[positions]]` entry per position with its `camera_to_world` and its
+//! lights (flashes `flash0` and `flash1` as point lights, optionally
+//! `backlight` and a projector). Reusing the manifest means one parser, one
+//! set of validated error messages, and that a calibrated scan's own
+//! `scan.toml` serves as the rig file. Captures in it are ignored.
+//!
+//! The mesh is re-read at every capture, since the scanner software writes
+//! each new object's mesh to the same path before the operator presses the
+//! footswitch.
+//!
+//! No projector driver exists yet (DRM/KMS and the LightCrafter are open
+//! work), so the hardware rig has none: its capture plan leaves out the
+//! projector photos with that reason, and the estimator skips subsurface
+//! (no checker capture). The V4L2 camera needs the `hardware` feature
+//! (libclang at build time); a build without it says so when the rig is
+//! opened, and the daemon keeps serving.
+//!
+//! Boundaries: opens devices and reads files; takes no photo.
+
+use super::config::HardwareRigConfig;
+use super::sequencer::{PositionGeometry, Rig, RigGeometry};
+use matscan_drivers::footswitch::EvdevFootswitch;
+use matscan_drivers::serial::{open_lights, HostConfig};
+use matscan_drivers::{Camera, DriverError};
+use matscan_scan::{LightKind, Manifest, Mesh, ScanError};
+use std::num::NonZeroU32;
+use std::path::{Path, PathBuf};
+
+/// Checkerboard periods written into the geometry; unused while the rig
+/// has no projector, kept valid so the type needs no special case.
+const CHECKER_PERIODS: (u32, u32) = (8, 32);
+
+/// Opening the hardware rig failed.
+#[derive(Debug, thiserror::Error)]
+pub enum HardwareError {
+    #[error("rig calibration {path}: {source}")]
+    Calibration {
+        path: PathBuf,
+        #[source]
+        source: ScanError,
+    },
+    #[error("rig calibration {path}: {message}")]
+    Invalid { path: PathBuf, message: String },
+    #[error("object mesh {path}: {source}")]
+    Mesh {
+        path: PathBuf,
+        #[source]
+        source: ScanError,
+    },
+    #[error(transparent)]
+    Driver(#[from] DriverError),
+}
+
+/// The rig's geometry: the calibration file's cameras and lights with the
+/// mesh at `config.mesh`.
+pub fn load_geometry(config: &HardwareRigConfig) -> Result<RigGeometry, HardwareError> {
+    let path = &config.calibration;
+    let (manifest, _warnings) =
+        Manifest::read_rig(path).map_err(|source| HardwareError::Calibration {
+            path: path.clone(),
+            source,
+        })?;
+    let invalid = |message: String| HardwareError::Invalid {
+        path: path.clone(),
+        message,
+    };
+    if manifest.positions.is_empty() {
+        return Err(invalid(
+            "no [[positions]]: expected one per rig position".into(),
+        ));
+    }
+    let (cw, ch) = (manifest.camera.width, manifest.camera.height);
+    if (cw, ch) != (config.width, config.height) {
+        return Err(invalid(format!(
+            "the calibrated camera is {cw}x{ch}, the configured capture size \
+             (hardware.width, hardware.height) is {}x{}",
+            config.width, config.height
+        )));
+    }
+    for position in &manifest.positions {
+        for flash in ["flash0", "flash1"] {
+            let found = position.lights.iter().find(|l| l.name == flash);
+            if !matches!(found.map(|l| &l.kind), Some(LightKind::Point { .. })) {
+                return Err(invalid(format!(
+                    "position `{}`: expected a point light named `{flash}` (the light \
+                     controller's flash channel)",
+                    position.name
+                )));
+            }
+        }
+    }
+    let mesh = read_mesh(&config.mesh)?;
+    let period = |p: u32| NonZeroU32::new(p).unwrap_or(NonZeroU32::MIN);
+    Ok(RigGeometry {
+        name: manifest.name.clone(),
+        mesh,
+        intrinsics: manifest.camera,
+        positions: manifest
+            .positions
+            .iter()
+            .map(|p| PositionGeometry {
+                name: p.name.clone(),
+                camera_to_world: p.camera_to_world,
+                lights: p.lights.clone(),
+                exposure_s: config.exposure_s,
+            })
+            .collect(),
+        checker_periods: (period(CHECKER_PERIODS.0), period(CHECKER_PERIODS.1)),
+    })
+}
+
+/// The object's mesh at `path` (PLY or OBJ, as the contract reads them).
+pub fn read_mesh(path: &Path) -> Result<Mesh, HardwareError> {
+    matscan_scan::mesh_io::read_mesh(path).map_err(|source| HardwareError::Mesh {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+/// Opens every device of the hardware rig; the geometry first, since a
+/// wrong file is the likeliest mistake and needs no device.
+pub fn open(config: &HardwareRigConfig) -> Result<Rig, HardwareError> {
+    let geometry = load_geometry(config)?;
+    let camera = open_camera(config)?;
+    let lights = open_lights(&config.lights, config.baud, HostConfig::default())?;
+    let footswitch = EvdevFootswitch::open(&config.footswitch, config.footswitch_keys.clone())?;
+    Ok(Rig {
+        camera,
+        lights: Box::new(lights),
+        projector: None,
+        positioner: None,
+        trigger: Some(Box::new(footswitch)),
+        disk: None,
+        geometry,
+        truth: None,
+    })
+}
+
+#[cfg(feature = "hardware")]
+fn open_camera(config: &HardwareRigConfig) -> Result<Box<dyn Camera>, HardwareError> {
+    use matscan_drivers::v4l2::{V4l2Camera, V4l2Config};
+    let camera = V4l2Camera::open(V4l2Config::new(&config.camera, config.width, config.height))?;
+    Ok(Box::new(camera))
+}
+
+#[cfg(not(feature = "hardware"))]
+fn open_camera(config: &HardwareRigConfig) -> Result<Box<dyn Camera>, HardwareError> {
+    Err(HardwareError::Driver(DriverError::InvalidSetting {
+        device: config.camera.clone(),
+        reason: "this matscan was built without V4L2 support; rebuild with \
+                 `cargo build --release -p matscan --features hardware` (needs libclang-dev)"
+            .to_string(),
+    }))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use matscan_sim::scene::{generate, GeometryKind, GeometrySource, SceneKind, SceneOptions};
+
+    /// A rig calibration file and a mesh written from a simulated scene,
+    /// as a scanner PC would keep them.
+    fn rig_files(dir: &Path) -> HardwareRigConfig {
+        let scene = generate(&SceneOptions {
+            seed: 3,
+            kind: SceneKind::TwoMat,
+            geometry: GeometrySource::Kind(GeometryKind::Sphere),
+            width: 32,
+            height: 32,
+            positions: 2,
+            map_size: 8,
+        });
+        let geometry = super::super::rig::geometry_of(&scene, 32);
+        let manifest = Manifest {
+            units: "m".into(),
+            name: "rig".into(),
+            created: "2026-11-23T00:00:00Z".into(),
+            camera: geometry.intrinsics,
+            positions: geometry
+                .positions
+                .iter()
+                .map(|p| matscan_scan::Position {
+                    name: p.name.clone(),
+                    camera_to_world: p.camera_to_world,
+                    lights: p.lights.clone(),
+                    captures: vec![],
+                    white_reference_mask: None,
+                })
+                .collect(),
+        };
+        let calibration = dir.join("rig.toml");
+        std::fs::write(&calibration, manifest.to_toml()).unwrap();
+        let mesh = dir.join("object.ply");
+        matscan_scan::mesh_io::write_ply(&mesh, &scene.mesh).unwrap();
+        HardwareRigConfig {
+            camera: "/dev/v4l/by-id/usb-test-video-index0".into(),
+            width: 32,
+            height: 32,
+            exposure_s: 0.02,
+            lights: dir.join("no-such-serial-port").display().to_string(),
+            baud: 115_200,
+            footswitch: "/dev/input/by-id/no-such-footswitch".into(),
+            footswitch_keys: vec![],
+            calibration,
+            mesh,
+        }
+    }
+
+    #[test]
+    fn the_rig_file_and_mesh_give_the_geometry_of_every_position() {
+        let dir = tempfile::tempdir().unwrap();
+        let config = rig_files(dir.path());
+        let g = load_geometry(&config).unwrap();
+        assert_eq!(g.positions.len(), 2);
+        assert_eq!(g.positions[1].name, "p1");
+        assert_eq!((g.intrinsics.width, g.intrinsics.height), (32, 32));
+        assert!(g.positions.iter().all(|p| p.exposure_s == 0.02));
+        assert!(g.mesh.triangle_count() > 100, "{}", g.mesh.triangle_count());
+    }
+
+    #[test]
+    fn a_rig_file_without_a_flash_or_of_the_wrong_size_is_refused_naming_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let config = rig_files(dir.path());
+        let text = std::fs::read_to_string(&config.calibration).unwrap();
+        let wrong_size = HardwareRigConfig {
+            width: 64,
+            ..config.clone()
+        };
+        let e = load_geometry(&wrong_size).unwrap_err().to_string();
+        assert!(
+            e.contains("rig.toml") && e.contains("32x32") && e.contains("64x32"),
+            "{e}"
+        );
+
+        std::fs::write(
+            &config.calibration,
+            text.replace("\"flash1\"", "\"flash9\""),
+        )
+        .unwrap();
+        let e = load_geometry(&config).unwrap_err().to_string();
+        assert!(e.contains("rig.toml"), "{e}");
+        assert!(e.contains("point light named `flash1`"), "{e}");
+    }
+
+    #[test]
+    fn a_missing_mesh_is_an_error_naming_the_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let config = HardwareRigConfig {
+            mesh: dir.path().join("gone.ply"),
+            ..rig_files(dir.path())
+        };
+        let e = load_geometry(&config).unwrap_err().to_string();
+        assert!(e.starts_with("object mesh "), "{e}");
+        assert!(e.contains("gone.ply"), "{e}");
+    }
+
+    #[test]
+    fn opening_names_the_first_device_that_is_missing() {
+        let dir = tempfile::tempdir().unwrap();
+        let config = rig_files(dir.path());
+        let e = match open(&config) {
+            Ok(_) => panic!("no device exists, yet the rig opened"),
+            Err(e) => e.to_string(),
+        };
+        if cfg!(feature = "hardware") {
+            assert!(e.contains("usb-test-video-index0"), "{e}");
+        } else {
+            assert!(e.contains("usb-test-video-index0"), "{e}");
+            assert!(e.contains("--features hardware"), "{e}");
+        }
+    }
+
+    #[test]
+    fn a_rig_without_projector_plans_no_projector_photo() {
+        let dir = tempfile::tempdir().unwrap();
+        let config = rig_files(dir.path());
+        let geometry = load_geometry(&config).unwrap();
+        let has_backlight = geometry
+            .positions
+            .iter()
+            .all(|p| p.lights.iter().any(|l| l.kind == LightKind::Backlight));
+        assert!(has_backlight, "the simulated rig file has a backlight");
+        // The capabilities a hardware rig reports, without opening devices.
+        let rig = Rig {
+            camera: Box::new(NoCamera),
+            lights: Box::new(NoLights),
+            projector: None,
+            positioner: None,
+            trigger: None,
+            disk: None,
+            geometry,
+            truth: None,
+        };
+        let caps = rig.capabilities();
+        assert!(!caps.projector && caps.backlight, "{caps:?}");
+    }
+
+    struct NoCamera;
+    impl Camera for NoCamera {
+        fn id(&self) -> &str {
+            "none"
+        }
+        fn resolution(&self) -> (u32, u32) {
+            (0, 0)
+        }
+        fn lock(&mut self, _: matscan_drivers::CameraSettings) -> Result<(), DriverError> {
+            Ok(())
+        }
+        fn settings(&self) -> matscan_drivers::CameraSettings {
+            matscan_drivers::CameraSettings::default()
+        }
+        fn scene_changed(&mut self, _: std::time::Duration) {}
+        fn capture(&mut self) -> Result<matscan_drivers::Frame, DriverError> {
+            Err(DriverError::InvalidSetting {
+                device: "none".into(),
+                reason: "no camera".into(),
+            })
+        }
+    }
+
+    struct NoLights;
+    impl matscan_drivers::LightController for NoLights {
+        fn id(&self) -> &str {
+            "none"
+        }
+        fn set(
+            &mut self,
+            _: matscan_drivers::LightId,
+            _: matscan_drivers::LightState,
+        ) -> Result<(), DriverError> {
+            Ok(())
+        }
+        fn all_off(&mut self) -> Result<(), DriverError> {
+            Ok(())
+        }
+        fn state(&self, _: matscan_drivers::LightId) -> matscan_drivers::LightState {
+            matscan_drivers::LightState::Off
+        }
+    }
+}
