@@ -325,6 +325,9 @@ pub fn estimate(
     Ok(EstimateReport { out, result })
 }
 
+/// Per network that ran: the views it fused and its seconds.
+type NetRuns = BTreeMap<ParamKind, (usize, f64)>;
+
 /// Sets the given and skipped parameters and runs the networks stage by
 /// stage in the image of `inputs.reference`; the seconds each network took
 /// and the views it fused, by network.
@@ -333,7 +336,7 @@ fn run_networks(
     models: &Models,
     inputs: &SceneInputs,
     device: &Device,
-) -> Result<(Values, BTreeMap<ParamKind, (usize, f64)>), EstimateError> {
+) -> Result<(Values, NetRuns), EstimateError> {
     let t = Instant::now();
     let mut values = Values::default();
     for kind in ParamKind::ALL {
