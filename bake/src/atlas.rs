@@ -102,13 +102,14 @@ impl Atlas {
                     if x0 > x1 {
                         continue;
                     }
-                    for x in x0 as usize..=x1 as usize {
-                        if out[x] <= t {
+                    let span = &mut out[x0 as usize..=x1 as usize];
+                    for (x, texel) in (x0 as usize..).zip(span.iter_mut()) {
+                        if *texel <= t {
                             continue;
                         }
                         let (u, v) = barycentric(Vec2::new(x as f32, py), a, b, c);
                         if u >= -EDGE_EPS && v >= -EDGE_EPS && u + v <= 1.0 + EDGE_EPS {
-                            out[x] = t;
+                            *texel = t;
                         }
                     }
                 }

@@ -25,7 +25,7 @@
 use crate::atlas::Atlas;
 use crate::sampling::Taps;
 use crate::views::View;
-use glam::{DVec3, Vec2};
+use glam::Vec2;
 use matscan_scan::bvh::RayCaster;
 use rayon::prelude::*;
 
@@ -56,6 +56,9 @@ pub(crate) struct Fused {
     pub coverage: Vec<bool>,
 }
 
+/// One texel row's sums, weights (per slot) and coverage.
+type FusedRow = (Vec<Vec<f32>>, Vec<Vec<f32>>, Vec<bool>);
+
 /// Fuses `views` into the atlas's texels for slots of `channels`.
 pub(crate) fn fuse(
     atlas: &Atlas,
@@ -68,7 +71,7 @@ pub(crate) fn fuse(
     let (w, h) = (atlas.width() as usize, atlas.height() as usize);
     let slots = channels.len();
     let unlit = options.unlit_weight.clamp(0.0, 1.0);
-    let rows: Vec<(Vec<Vec<f32>>, Vec<Vec<f32>>, Vec<bool>)> = (0..h)
+    let rows: Vec<FusedRow> = (0..h)
         .into_par_iter()
         .map(|y| {
             let mut sums: Vec<Vec<f32>> = channels.iter().map(|&c| vec![0.0; w * c]).collect();
@@ -88,7 +91,7 @@ pub(crate) fn fuse(
                     if cos <= 0.0 || sp.geometric_normal.dot(dir) <= 0.0 {
                         continue;
                     }
-                    let Some(px) = view.camera.project(DVec3::from(sp.position.as_dvec3())) else {
+                    let Some(px) = view.camera.project(sp.position.as_dvec3()) else {
                         continue;
                     };
                     if !(px.x >= 0.0
