@@ -259,3 +259,40 @@ fn khronos_validator_finds_no_errors_in_either_format() {
         assert_eq!(issues["numErrors"], 0, "{}: {issues:#}", file.display());
     }
 }
+
+#[test]
+fn a_mesh_without_uvs_is_refused_naming_the_file_and_the_fix() {
+    let f = fixture();
+    let dir = tempfile::tempdir().unwrap();
+    let scan = dir.path().join("scan");
+    std::fs::create_dir_all(&scan).unwrap();
+    std::fs::copy(f.scan.join("scan.toml"), scan.join("scan.toml")).unwrap();
+    let bundle = Bundle::open(&f.scan).unwrap();
+    let mut mesh = bundle.read_mesh().unwrap();
+    mesh.uvs = None;
+    matscan_scan::mesh_io::write_mesh(&scan.join("geometry.ply"), &mesh).unwrap();
+    let views = f.scan.join("views");
+    for p in std::fs::read_dir(&views).unwrap() {
+        let p = p.unwrap().path();
+        let to = scan.join("views").join(p.file_name().unwrap());
+        std::fs::create_dir_all(&to).unwrap();
+        for file in std::fs::read_dir(&p).unwrap() {
+            let file = file.unwrap().path();
+            std::fs::copy(&file, to.join(file.file_name().unwrap())).unwrap();
+        }
+    }
+    copy_truth_as_estimate(&bundle, &scan.join("estimate"));
+    let err = bake_scan(
+        &scan,
+        &scan.join("estimate"),
+        &BakeOptions {
+            size: 16,
+            ..BakeOptions::default()
+        },
+    )
+    .unwrap_err();
+    assert!(matches!(err, BakeError::NoUvs { .. }), "{err}");
+    let text = err.to_string();
+    assert!(text.contains("geometry.ply"), "{text}");
+    assert!(text.contains("Smart UV Project"), "{text}");
+}
