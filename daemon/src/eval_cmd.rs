@@ -238,7 +238,15 @@ pub fn evaluate_scene(
     group_by: GroupBy,
     baseline: Option<&BTreeMap<ParamKind, f64>>,
 ) -> Result<SceneResult> {
-    evaluate_scene_with(scan, models, options, device, group_by, baseline, &mut |_, _| {})
+    evaluate_scene_with(
+        scan,
+        models,
+        options,
+        device,
+        group_by,
+        baseline,
+        &mut |_, _| {},
+    )
 }
 
 /// [`evaluate_scene`], handing the estimate's folder and reference

@@ -15,6 +15,16 @@
 //!   light at the camera; [`IMAGE_WIDTH`] px, [`SAMPLES`] samples per
 //!   pixel; PSNR and SSIM as `matscan::image_metrics` defines them.
 //!
+//! The estimate bakes the positions eval's estimate has maps for: only the
+//! reference position (eval estimates with the default, one reference), so
+//! texels that only other positions see are hole-filled in the estimate;
+//! the texture MAD leaves them out (measured in both), the side views show
+//! them.
+//!
+//! Beside each image's scores stand those of the true material against
+//! itself rendered with other random numbers: the scale of sampling noise
+//! (not a bound: estimated and true renders share their random numbers).
+//!
 //! "True" material is the baked truth (see `render_cmd`'s doc), so these
 //! figures measure the estimator, not the baker.
 //!
@@ -67,7 +77,7 @@ pub struct TextureScore {
     pub params: BTreeMap<Param, ErrorMetrics>,
     /// Per shot of [`SHOTS`] (those with the object in view): estimated
     /// against true material, and the true material against itself with
-    /// other random numbers (the noise floor).
+    /// other random numbers (the scale of sampling noise; see `render_cmd`).
     pub renders: Vec<(String, Similarity, Similarity)>,
 }
 

@@ -19,6 +19,11 @@
 //! default for both). The comparison isolates the estimator's error from
 //! the baking's.
 //!
+//! Noise: the table's `noise` columns compare the true material with
+//! itself rendered with other random numbers, the scale of sampling noise
+//! at `--samples` (estimated and true renders share their random numbers,
+//! so an estimate can score above it).
+//!
 //! Output: `DIR/<view>-<lighting>.exr` (linear float, exposure 1) and
 //! `.png` (8-bit, the tone mapping of `image_metrics`), truth renders under
 //! `DIR/truth/`, and `DIR/metrics.csv`; every file written atomically.
@@ -203,8 +208,10 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     for (shot, r) in shots.iter().zip(&true_renders) {
         write_render(&truth_dir, &shot.name(), r)?;
     }
-    // The truth again with other random numbers: the score a perfect
-    // estimate would get at this many samples.
+    // The truth again with other random numbers: how far sampling noise
+    // alone moves the scores at this many samples. Estimated and true
+    // renders share their random numbers (correlated noise), so an
+    // estimate can score above this; it is a scale, not a bound.
     let reseeded = RenderSettings {
         seed: settings.seed ^ NOISE_SEED,
         ..settings
@@ -252,7 +259,8 @@ pub struct Score {
 fn score_table(scores: &[Score]) -> (String, String) {
     let mut table = format!(
         "estimated vs true material, luminance of tone-mapped renders over the object\n\
-         (noise: the true material against itself with other random numbers, the best score at these samples):\n\
+         (noise: the true material against itself with other random numbers: the scale of sampling noise;\n\
+          estimated and true renders share their random numbers, so they can score above it):\n\
          {:<28} {:>8} {:>7}   {:>8} {:>7} {:>8}\n",
         "image", "PSNR dB", "SSIM", "noise dB", "SSIM", "pixels"
     );
