@@ -17,6 +17,10 @@ use matscan_estimate::refine::{IlluminationSource, RefineOptions};
 use matscan_estimate::{cpu_device, estimate, EstimateOptions, ModelSource, ParamKind};
 use std::path::{Path, PathBuf};
 
+/// Network-only total seconds, refined total seconds, refinement seconds,
+/// and per parameter the network-only and refined MAD.
+type Row = (f64, f64, f64, Vec<(f64, f64)>);
+
 fn scans(root: &Path) -> Vec<PathBuf> {
     let mut out = Vec::new();
     let mut stack = vec![root.to_path_buf()];
@@ -92,7 +96,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .collect::<Vec<_>>()
             .join(",")
     );
-    let mut rows: Vec<(f64, f64, f64, Vec<(f64, f64)>)> = Vec::new();
+    let mut rows: Vec<Row> = Vec::new();
     for scan in scans(&root).into_iter().take(limit) {
         let out = tmp.join("estimate");
         let run = |refine: RefineOptions| {
@@ -169,7 +173,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         mean(&fitted_net),
         mean(&fitted_refined)
     );
-    let col = |f: fn(&(f64, f64, f64, Vec<(f64, f64)>)) -> f64| rows.iter().map(f).collect();
+    let col = |f: fn(&Row) -> f64| rows.iter().map(f).collect();
     println!(
         "median total estimate time: network-only {:.3} s, refined {:.3} s (refinement {:.3} s, \
          {iterations} iterations, {illumination:?} light), {} scans",

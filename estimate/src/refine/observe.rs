@@ -175,7 +175,7 @@ pub fn observations(
                 lit: lighting.lit[i],
                 cos_nl: planes.cos_nl()[i],
                 cos_nv: planes.cos_nv()[i],
-                saturated: lit.iter().any(|&v| !(v < lighting.clip)),
+                saturated: lit.iter().any(|&v| v.is_nan() || v >= lighting.clip),
             };
             let (wo, wi) = directions(planes.cos_nv()[i], planes.cos_nl()[i], planes.cos_vl()[i]);
             let observed = [0, 1, 2].map(|c| {

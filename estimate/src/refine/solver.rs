@@ -167,9 +167,8 @@ pub fn solve(problem: &Problem<'_>, settings: &Settings) -> Fit {
             a[p][p] += damping * h[p][p] + 1e-12;
         }
         let rhs: X = std::array::from_fn(|p| if free[p] { -g[p] } else { 0.0 });
-        let step = restrict(&mut a, &free)
-            .and_then(|()| cholesky_solve(&a, &rhs))
-            .unwrap_or([0.0; N]);
+        restrict(&mut a, &free);
+        let step = cholesky_solve(&a, &rhs).unwrap_or([0.0; N]);
         let trial = clamp_to_box(&std::array::from_fn(|p| x[p] + step[p]));
         let moved = (0..N).map(|p| (trial[p] - x[p]).abs()).fold(0.0, f64::max);
         let trial_z = eval.residuals(&trial);
@@ -249,11 +248,9 @@ impl Evaluator<'_> {
         for o in self.obs {
             let predicted = model::predict(&bsdf, o);
             let w = f64::from(o.weight).sqrt();
-            for c in 0..3 {
-                let observed = f64::from(o.observed[c]);
-                let observed = if observed.is_finite() { observed } else { 0.0 };
-                let r =
-                    w * (predicted[c] - observed) / sigma(o.observed[c], s.noise_abs, s.noise_rel);
+            for (&p, &o) in predicted.iter().zip(&o.observed) {
+                let observed = if o.is_finite() { f64::from(o) } else { 0.0 };
+                let r = w * (p - observed) / sigma(o, s.noise_abs, s.noise_rel);
                 z.push(if r.is_finite() { r } else { 0.0 });
             }
         }
@@ -317,9 +314,9 @@ impl Evaluator<'_> {
             }
         }
         for a in 0..N {
-            for b in 0..a {
-                h[a][b] = h[b][a];
-            }
+            // Mirror the upper triangle accumulated above.
+            let column: [f64; N] = std::array::from_fn(|b| h[b][a]);
+            h[a][..a].copy_from_slice(&column[..a]);
             h[a][a] += self.prior.precision[a];
             g[a] += self.prior.precision[a] * (x[a] - self.prior.mean[a]);
         }
@@ -328,17 +325,14 @@ impl Evaluator<'_> {
 }
 
 /// Removes the parameters not `free` from the system (identity rows).
-fn restrict(a: &mut [X; N], free: &[bool; N]) -> Option<()> {
-    for p in 0..N {
-        if !free[p] {
-            for q in 0..N {
-                a[p][q] = 0.0;
-                a[q][p] = 0.0;
-            }
-            a[p][p] = 1.0;
+fn restrict(a: &mut [X; N], free: &[bool; N]) {
+    for (p, _) in free.iter().enumerate().filter(|(_, f)| !**f) {
+        for row in a.iter_mut() {
+            row[p] = 0.0;
         }
+        a[p] = [0.0; N];
+        a[p][p] = 1.0;
     }
-    Some(())
 }
 
 /// Solves `a y = b` for symmetric positive definite `a`.
