@@ -11,6 +11,7 @@ use matscan_estimate::pipeline::References;
 use matscan_estimate::refine::RefineOptions;
 use matscan_estimate::{cpu_device, estimate, EstimateOptions, ModelSource, ParamKind};
 use matscan_scan::image_io::{read_rgb_exr, read_scalar_exr};
+use matscan_scan::Manifest;
 use std::path::Path;
 
 fn options(refine: bool) -> EstimateOptions {
@@ -98,6 +99,31 @@ fn an_all_saturated_scan_gives_finite_maps_in_range() {
 fn the_refinement_on_black_and_saturated_scans_gives_finite_maps_in_range() {
     run_constant(0.0, true);
     run_constant(1.0, true);
+}
+
+#[test]
+fn a_1e6_exposure_ratio_between_captures_gives_finite_maps_in_range() {
+    // Lit captures exposed 1e6 times shorter than ambient (and the other
+    // way round): every lit photo is scaled by 1e6 (or 1e-6) on its way
+    // to the ambient's units, with the refinement on.
+    for factor in [1e-6, 1e6] {
+        let what = format!("lit exposure x {factor}");
+        let dir = tempfile::tempdir().unwrap();
+        let scan = common::copy(dir.path());
+        let path = scan.join("scan.toml");
+        let (mut manifest, _) = Manifest::read(&path).unwrap();
+        for position in &mut manifest.positions {
+            for capture in &mut position.captures {
+                if !capture.lights.is_empty() {
+                    capture.exposure_s *= factor;
+                }
+            }
+        }
+        std::fs::write(&path, manifest.to_toml()).unwrap();
+        let report = estimate(&scan, ModelSource::Embedded, &options(true), &cpu_device())
+            .unwrap_or_else(|e| panic!("{what}: {e}"));
+        assert_maps_in_range(&scan, &report.result, &what);
+    }
 }
 
 #[test]
