@@ -154,7 +154,7 @@ pub struct PlotRect {
 impl PlotRect {
     /// The pixel of (`x`, `y`): x grows rightwards, y upwards (rows count
     /// down from the top, hence `bottom - ...`).
-    pub fn to_pixel(&self, x: &Axis, y: &Axis, (vx, vy): (f64, f64)) -> Option<(i64, i64)> {
+    pub fn pixel_of(&self, x: &Axis, y: &Axis, (vx, vy): (f64, f64)) -> Option<(i64, i64)> {
         let (fx, fy) = (x.fraction(vx)?, y.fraction(vy)?);
         Some((
             self.left + (fx * (self.right - self.left) as f64).round() as i64,
@@ -268,7 +268,7 @@ pub fn render(chart: &Chart) -> RgbImage {
             false,
         );
         for t in y_axis.ticks() {
-            if let Some((_, py)) = rect.to_pixel(&x_axis, &y_axis, (x_axis.lo, t)) {
+            if let Some((_, py)) = rect.pixel_of(&x_axis, &y_axis, (x_axis.lo, t)) {
                 line(&mut img, (rect.left, py), (rect.right, py), GRID);
                 let label = tick_label(t);
                 let w = font::text_width(&label, TEXT) as i64;
@@ -283,7 +283,7 @@ pub fn render(chart: &Chart) -> RgbImage {
             }
         }
         for t in x_axis.ticks() {
-            if let Some((px, _)) = rect.to_pixel(&x_axis, &y_axis, (t, y_axis.lo)) {
+            if let Some((px, _)) = rect.pixel_of(&x_axis, &y_axis, (t, y_axis.lo)) {
                 line(&mut img, (px, rect.top), (px, rect.bottom), GRID);
                 let label = tick_label(t);
                 let w = font::text_width(&label, TEXT) as i64;
@@ -327,7 +327,7 @@ pub fn render(chart: &Chart) -> RgbImage {
                 .points
                 .iter()
                 .filter_map(|p| {
-                    rect.to_pixel(&x_axis, &y_axis, (p.x, p.y))
+                    rect.pixel_of(&x_axis, &y_axis, (p.x, p.y))
                         .map(|px| (px, p.label.as_str()))
                 })
                 .collect();
@@ -443,11 +443,11 @@ mod tests {
             hi: 0.5,
             log: false,
         };
-        assert_eq!(rect.to_pixel(&x, &y, (1.0, 0.0)), Some((100, 220)));
-        assert_eq!(rect.to_pixel(&x, &y, (1000.0, 0.5)), Some((400, 20)));
+        assert_eq!(rect.pixel_of(&x, &y, (1.0, 0.0)), Some((100, 220)));
+        assert_eq!(rect.pixel_of(&x, &y, (1000.0, 0.5)), Some((400, 20)));
         // 10 s is a third of the way along three decades; 0.25 halfway up.
-        assert_eq!(rect.to_pixel(&x, &y, (10.0, 0.25)), Some((200, 120)));
-        assert_eq!(rect.to_pixel(&x, &y, (-1.0, 0.25)), None);
+        assert_eq!(rect.pixel_of(&x, &y, (10.0, 0.25)), Some((200, 120)));
+        assert_eq!(rect.pixel_of(&x, &y, (-1.0, 0.25)), None);
     }
 
     #[test]
@@ -501,9 +501,9 @@ mod tests {
         };
         let x = Axis::fit([1.0, 9.0], true);
         let y = Axis::fit([0.1, 0.2], false);
-        let (px, py) = rect.to_pixel(&x, &y, (1.0, 0.1)).unwrap();
+        let (px, py) = rect.pixel_of(&x, &y, (1.0, 0.1)).unwrap();
         assert!(red(px as u32, py as u32));
-        let (qx, qy) = rect.to_pixel(&x, &y, (9.0, 0.2)).unwrap();
+        let (qx, qy) = rect.pixel_of(&x, &y, (9.0, 0.2)).unwrap();
         assert!(red(qx as u32, qy as u32));
         // Nothing red far from the line, e.g. the panel's top-right corner.
         assert!(!red((rect.right - 2) as u32, (rect.top + 2) as u32));

@@ -45,8 +45,15 @@ fn bench_quick_writes_a_row_per_setting_with_finite_figures_and_a_png() {
         "width",
     ]);
     let stdout = String::from_utf8_lossy(&o.stdout);
-    assert!(stdout.contains("not built (no GPU backend in this build)"), "{stdout}");
-    assert!(data.join("32px").join("2mat-40000").join("scan.toml").is_file());
+    assert!(
+        stdout.contains("not built (no GPU backend in this build)"),
+        "{stdout}"
+    );
+    assert!(data
+        .join("32px")
+        .join("2mat-40000")
+        .join("scan.toml")
+        .is_file());
     assert!(data.join("bench-data.toml").is_file());
 
     let csv = std::fs::read_to_string(out.join("bench.csv")).unwrap();
@@ -87,7 +94,10 @@ fn bench_quick_writes_a_row_per_setting_with_finite_figures_and_a_png() {
         }
     }
     // Every view and 32 px are both the base configuration, measured once.
-    assert_eq!(rows[1][col("median_seconds")], rows[2][col("median_seconds")]);
+    assert_eq!(
+        rows[1][col("median_seconds")],
+        rows[2][col("median_seconds")]
+    );
     assert_eq!(rows[2][col("status")], "measured");
     assert!(rows[5][col("status")].starts_with("not built"));
     assert_eq!(rows[5][col("median_seconds")], "");
@@ -172,10 +182,9 @@ fn eval_tables_group_scans_by_kind_and_overall_weighs_every_scene() {
         assert!((num(g2, "mad") - mean2).abs() < 1e-9);
         let all = &find("overall", "ALL", param)[0];
         assert_eq!(all[col("scans")], "3");
-        let mean_all = (num(&scenes2[0], "mad")
-            + num(&scenes2[1], "mad")
-            + num(&scenes_multi[0], "mad"))
-            / 3.0;
+        let mean_all =
+            (num(&scenes2[0], "mad") + num(&scenes2[1], "mad") + num(&scenes_multi[0], "mad"))
+                / 3.0;
         assert!((num(all, "mad") - mean_all).abs() < 1e-9);
         assert!(num(all, "baseline_mad").is_finite());
     }
