@@ -66,7 +66,7 @@ fn plane(fill: Fill, channel: usize, h: usize, w: usize) -> impl Iterator<Item =
     (0..h * w).map(move |i| match fill {
         Fill::Constant(v) => v,
         Fill::Checker => {
-            if (i % w + i / w + channel) % 2 == 0 {
+            if (i % w + i / w + channel).is_multiple_of(2) {
                 -1.0
             } else {
                 1.0

@@ -240,7 +240,8 @@ proptest! {
         };
         let options = RefineOptions { iterations: 6, ..RefineOptions::default() };
         let out = refine_pixels(&start, |_| obs.clone(), &options);
-        for i in 0..n {
+        prop_assert_eq!(out.roughness.len(), n);
+        for (i, &masked) in mask.iter().enumerate() {
             let c = out.confidence[i];
             let values = [
                 out.basecolor[i][0], out.basecolor[i][1], out.basecolor[i][2],
@@ -250,7 +251,7 @@ proptest! {
                 values.iter().all(|v| v.is_finite() && (0.0..=1.0).contains(v)),
                 "pixel {i}: {values:?}"
             );
-            if !mask[i] {
+            if !masked {
                 prop_assert_eq!(values, [0.0; 8], "unmasked pixel {} was written", i);
             }
         }
