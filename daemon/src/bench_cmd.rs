@@ -38,6 +38,7 @@ use burn::tensor::Device;
 use clap::Args;
 use matscan_calib::{calibrate_bundle, CalibOptions};
 use matscan_estimate::backend::CpuBackend;
+use matscan_estimate::refine::RefineOptions;
 use matscan_estimate::views::select_views;
 use matscan_estimate::weights::EMBEDDED;
 use matscan_estimate::{
@@ -59,11 +60,20 @@ pub enum Knob {
     Resolution,
     Width,
     Backend,
+    /// Iterations of the analysis-by-synthesis refinement after the
+    /// networks (`matscan estimate --refine N`; 0 = networks only).
+    Refine,
 }
 
 impl Knob {
     /// Every knob, in table order.
-    pub const ALL: [Knob; 4] = [Knob::Views, Knob::Resolution, Knob::Width, Knob::Backend];
+    pub const ALL: [Knob; 5] = [
+        Knob::Views,
+        Knob::Resolution,
+        Knob::Width,
+        Knob::Backend,
+        Knob::Refine,
+    ];
 
     pub fn name(self) -> &'static str {
         match self {
@@ -71,6 +81,7 @@ impl Knob {
             Knob::Resolution => "resolution",
             Knob::Width => "width",
             Knob::Backend => "backend",
+            Knob::Refine => "refine",
         }
     }
 
@@ -81,6 +92,7 @@ impl Knob {
             Knob::Resolution => [214, 39, 40],
             Knob::Width => [44, 160, 44],
             Knob::Backend => [148, 103, 189],
+            Knob::Refine => [255, 127, 14],
         }
     }
 }
@@ -117,6 +129,10 @@ pub struct BenchArgs {
     /// 1].
     #[arg(long, value_delimiter = ',')]
     pub widths: Option<Vec<f64>>,
+    /// Refinement iterations of the refine knob, comma-separated (0 =
+    /// networks only) [default: 0,2,5,10; quick: 0,3].
+    #[arg(long, value_delimiter = ',')]
+    pub refine: Option<Vec<u32>>,
     /// Knobs to leave out, comma-separated.
     #[arg(long, value_enum, value_delimiter = ',')]
     pub skip: Vec<Knob>,
@@ -162,6 +178,8 @@ pub struct Config {
     /// Network widths in percent of the shipped ones.
     pub width_percent: u32,
     pub backend: Backend,
+    /// Refinement iterations (0 = networks only).
+    pub refine: u32,
 }
 
 /// The resolved sweep.
@@ -172,6 +190,7 @@ pub struct Plan {
     pub sizes: Vec<u32>,
     pub views: Vec<usize>,
     pub width_percents: Vec<u32>,
+    pub refine: Vec<u32>,
     pub knobs: Vec<Knob>,
 }
 
@@ -198,6 +217,19 @@ impl Plan {
                 vec![0.5, 1.0, 2.0]
             }
         });
+        let refine =
+            args.refine.clone().unwrap_or_else(
+                || {
+                    if quick {
+                        vec![0, 3]
+                    } else {
+                        vec![0, 2, 5, 10]
+                    }
+                },
+            );
+        if let Some(n) = refine.iter().find(|n| **n > 1000) {
+            bail!("--refine {n}: expected at most 1000 iterations");
+        }
         if scenes == 0 {
             bail!("--scenes 0: expected at least one scene");
         }
@@ -221,10 +253,12 @@ impl Plan {
                 views: 0,
                 width_percent: 100,
                 backend: Backend::Cpu(matscan_estimate::backend::default_cpu_backend()),
+                refine: 0,
             },
             sizes,
             views,
             width_percents,
+            refine,
             knobs: Knob::ALL
                 .into_iter()
                 .filter(|k| !args.skip.contains(k))
@@ -265,6 +299,11 @@ impl Plan {
                 .chain([Backend::Gpu])
                 .map(|backend| (backend.label(), Config { backend, ..base }))
                 .collect(),
+            Knob::Refine => self
+                .refine
+                .iter()
+                .map(|&refine| (refine_label(refine), Config { refine, ..base }))
+                .collect(),
         }
     }
 
@@ -279,6 +318,14 @@ impl Plan {
         sizes.sort_unstable();
         sizes.dedup();
         sizes
+    }
+}
+
+fn refine_label(iterations: u32) -> String {
+    if iterations == 0 {
+        "networks only".to_string()
+    } else {
+        format!("refine {iterations}")
     }
 }
 
@@ -454,6 +501,10 @@ fn run_config(
         let options = EstimateOptions {
             out: Some(scratch.join(format!("scene-{i}"))),
             filter: view_filter(config.views, all.as_deref()),
+            refine: RefineOptions {
+                iterations: config.refine,
+                ..RefineOptions::default()
+            },
             ..EstimateOptions::default()
         };
         match evaluate_scene(scan, models, &options, &device, GroupBy::Kind, None) {
@@ -496,7 +547,7 @@ pub struct Row {
 }
 
 /// Header of `bench.csv`.
-pub const CSV_HEADER: &str = "knob,setting,size,views,width_scale,backend,scenes,median_seconds,status,basecolor_mad,roughness_mad,metallic_mad,transmission_mad,subsurface_mad";
+pub const CSV_HEADER: &str = "knob,setting,size,views,width_scale,backend,refine_iterations,scenes,median_seconds,status,basecolor_mad,roughness_mad,metallic_mad,transmission_mad,subsurface_mad";
 
 /// `bench.csv`: one line per row; MAD fields empty where not measured.
 pub fn csv(rows: &[Row]) -> String {
@@ -525,13 +576,14 @@ pub fn csv(rows: &[Row]) -> String {
         };
         let _ = write!(
             out,
-            "{},{},{},{},{},{},{scenes},{seconds},{}",
+            "{},{},{},{},{},{},{},{scenes},{seconds},{}",
             r.knob.name(),
             csv_field(&r.setting),
             c.size,
             c.views,
             f64::from(c.width_percent) / 100.0,
             csv_field(&c.backend.label()),
+            c.refine,
             csv_field(&status),
         );
         for kind in ParamKind::ALL {
@@ -748,6 +800,13 @@ mod tests {
             .map(|(l, _)| l.clone())
             .collect();
         assert_eq!(backends, ["cpu flex", "cpu ndarray", "gpu"]);
+        let refine: Vec<(String, u32)> = p
+            .settings(Knob::Refine)
+            .into_iter()
+            .map(|(l, c)| (l, c.refine))
+            .collect();
+        assert_eq!(refine[0], ("networks only".to_string(), 0));
+        assert_eq!(refine[3], ("refine 10".to_string(), 10));
         assert_eq!(p.sizes_needed(), [128, 256, 512, 768]);
     }
 
@@ -818,7 +877,7 @@ mod tests {
             lines[1]
         );
         assert!(
-            lines[2].contains(",2,cpu flex,3,6,untrained,,,,,"),
+            lines[2].contains(",2,cpu flex,0,3,6,untrained,,,,,"),
             "{}",
             lines[2]
         );

@@ -72,8 +72,13 @@ fn bench_quick_writes_a_row_per_setting_with_finite_figures_and_a_png() {
             ("backend", "cpu flex"),
             ("backend", "cpu ndarray"),
             ("backend", "gpu"),
+            ("refine", "networks only"),
+            ("refine", "refine 3"),
         ]
     );
+    let refined = &rows[rows.len() - 1];
+    assert_eq!(refined[col("refine_iterations")], "3");
+    assert_eq!(refined[col("status")], "measured", "{refined:?}");
     let mads = [
         "basecolor_mad",
         "roughness_mad",
