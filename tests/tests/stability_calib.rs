@@ -188,6 +188,51 @@ proptest! {
     }
 }
 
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(16))]
+
+    /// The rig's flash sits at the camera, so at the sphere's centre pixel
+    /// the view and the light are both along the normal: eq. 3.4's pole.
+    /// Moving the light by `d` turns its direction at a point at distance
+    /// `dist` by at most `d / dist` radians; `cos_nl` has slope <= 1 in that
+    /// angle and `cos_vl` slope <= 1 / AZIMUTH_EPSILON = 1e4 (the fade near
+    /// the pole), so a pixel's cosines may move by at most that times the
+    /// angle, plus 1e-5 for f32 rounding of the stored maps.
+    #[test]
+    fn cosines_move_continuously_when_a_flash_at_the_camera_moves(
+        d in prop::array::uniform3(-1e-6f64..1e-6),
+    ) {
+        let eye = DVec3::new(0.0, 0.0, -2.0);
+        let c2w = look_at(eye, DVec3::ZERO, DVec3::new(0.0, -1.0, 0.0));
+        let caster = RayCaster::new(icosphere(Vec3::ZERO, 0.5, 4));
+        // An odd size puts the centre pixel's ray exactly on the optical
+        // axis, through the sphere's pole as seen from the flash.
+        let at = |light: DVec3| {
+            let pos = position(c2w, vec![point_light("flash", light)]);
+            position_maps(&caster, &intrinsics(21, 60.0), &pos)
+        };
+        let moved = DVec3::from(d);
+        let (a, b) = (at(eye), at(eye + moved));
+        let (la, lb) = (&a.lights[0], &b.lights[0]);
+        let centre = 10 * 21 + 10;
+        prop_assert!(a.geometry.mask.data[centre]);
+        prop_assert!(la.cos_nl.data[centre] > 0.999_999);
+        for i in 0..la.cos_nl.data.len() {
+            if !a.geometry.mask.data[i] {
+                continue;
+            }
+            let angle = moved.length() / f64::from(la.distance.data[i]);
+            let nl = (la.cos_nl.data[i] - lb.cos_nl.data[i]).abs() as f64;
+            let vl = (la.cos_vl.data[i] - lb.cos_vl.data[i]).abs() as f64;
+            prop_assert!(nl <= angle + 1e-5, "pixel {i}: cos_nl moved {nl} for {angle} rad");
+            prop_assert!(
+                vl <= angle / matscan_calib::angles::AZIMUTH_EPSILON + 1e-5,
+                "pixel {i}: cos_vl moved {vl} for {angle} rad"
+            );
+        }
+    }
+}
+
 #[test]
 fn a_mesh_of_only_zero_area_triangles_gives_an_empty_finite_map() {
     let p = Vec3::new(0.1, 0.2, 0.3);
