@@ -139,6 +139,11 @@ proptest! {
         if let Some(s) = bsdf.sample(wo, u) {
             prop_assert!(s.wi.is_finite() && (s.wi.length() - 1.0).abs() < 1e-4, "wi {:?}", s.wi);
             assert_finite_non_negative(s.weight, "sample weight")?;
+            // Throughput weights f cos / pdf measured at most 8.2 over 400k
+            // random extreme samples (rough metal at 88 degrees); 100 flags
+            // a pdf that disagrees with the value (a firefly source) without
+            // tripping on the legitimate grazing gain.
+            prop_assert!(s.weight.max_element() <= 100.0, "weight {:?} ({s:?})", s.weight);
             prop_assert!(s.pdf.is_finite() && s.pdf > 0.0, "pdf {}", s.pdf);
             if !s.specular_delta && s.kind != LobeKind::SubsurfaceEntry {
                 // The reported density is eval's: MIS relies on it.
