@@ -546,12 +546,21 @@ pub struct Row {
     pub outcome: Outcome,
 }
 
-/// Header of `bench.csv`.
-pub const CSV_HEADER: &str = "knob,setting,size,views,width_scale,backend,refine_iterations,scenes,median_seconds,status,basecolor_mad,roughness_mad,metallic_mad,transmission_mad,subsurface_mad";
+/// Header of `bench.csv`; the MAD columns follow `ParamKind::ALL`, the
+/// order the values are written in.
+pub fn csv_header() -> String {
+    let mut header = String::from(
+        "knob,setting,size,views,width_scale,backend,refine_iterations,scenes,median_seconds,status",
+    );
+    for kind in ParamKind::ALL {
+        header.push_str(&format!(",{}_mad", kind.name()));
+    }
+    header
+}
 
 /// `bench.csv`: one line per row; MAD fields empty where not measured.
 pub fn csv(rows: &[Row]) -> String {
-    let mut out = format!("{CSV_HEADER}\n");
+    let mut out = format!("{}\n", csv_header());
     for r in rows {
         let c = &r.config;
         let (scenes, seconds, status, mad) = match &r.outcome {
@@ -871,6 +880,27 @@ mod tests {
         let text = csv(&rows);
         let lines: Vec<&str> = text.lines().collect();
         assert_eq!(lines.len(), 4);
+        // Each MAD column holds its own parameter's value.
+        let distinct: BTreeMap<ParamKind, f64> = ParamKind::ALL
+            .into_iter()
+            .enumerate()
+            .map(|(i, k)| (k, 0.1 * (i + 1) as f64))
+            .collect();
+        let mut labelled = rows[0].clone();
+        if let Outcome::Measured { mad, .. } = &mut labelled.outcome {
+            *mad = Some(distinct.clone());
+        }
+        let one = csv(&[labelled]);
+        let mut one_lines = one.lines();
+        let header: Vec<&str> = one_lines.next().unwrap().split(',').collect();
+        let values: Vec<&str> = one_lines.next().unwrap().split(',').collect();
+        for (kind, v) in &distinct {
+            let col = header
+                .iter()
+                .position(|h| *h == format!("{}_mad", kind.name()))
+                .unwrap();
+            assert_eq!(values[col].parse::<f64>().unwrap(), *v, "{kind}");
+        }
         assert!(
             lines[1].ends_with(",measured,0.1,0.1,0.1,0.1,0.1"),
             "{}",
