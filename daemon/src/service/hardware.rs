@@ -12,9 +12,9 @@
 //! set of validated error messages, and that a calibrated scan's own
 //! `scan.toml` serves as the rig file. Captures in it are ignored.
 //!
-//! The mesh is re-read at every capture, since the scanner software writes
-//! each new object's mesh to the same path before the operator presses the
-//! footswitch.
+//! The mesh is re-read at every capture ([`Rig::reload_mesh`] with
+//! `mesh_source`), since the scanner software writes each new object's mesh
+//! to the same path before the operator presses the footswitch.
 //!
 //! No projector driver exists yet (DRM/KMS and the LightCrafter are open
 //! work), so the hardware rig has none: its capture plan leaves out the
@@ -118,7 +118,7 @@ pub fn load_geometry(config: &HardwareRigConfig) -> Result<RigGeometry, Hardware
 }
 
 /// The object's mesh at `path` (PLY or OBJ, as the contract reads them).
-pub fn read_mesh(path: &Path) -> Result<Mesh, HardwareError> {
+fn read_mesh(path: &Path) -> Result<Mesh, HardwareError> {
     matscan_scan::mesh_io::read_mesh(path).map_err(|source| HardwareError::Mesh {
         path: path.to_path_buf(),
         source,
@@ -141,6 +141,7 @@ pub fn open(config: &HardwareRigConfig) -> Result<Rig, HardwareError> {
         disk: None,
         geometry,
         truth: None,
+        mesh_source: Some(config.mesh.clone()),
     })
 }
 
@@ -299,9 +300,48 @@ mod tests {
             disk: None,
             geometry,
             truth: None,
+            mesh_source: None,
         };
         let caps = rig.capabilities();
         assert!(!caps.projector && caps.backlight, "{caps:?}");
+    }
+
+    #[test]
+    fn reload_mesh_picks_up_the_scanners_new_export() {
+        let dir = tempfile::tempdir().unwrap();
+        let config = rig_files(dir.path());
+        let geometry = load_geometry(&config).unwrap();
+        let first = geometry.mesh.triangle_count();
+        let mut rig = Rig {
+            camera: Box::new(NoCamera),
+            lights: Box::new(NoLights),
+            projector: None,
+            positioner: None,
+            trigger: None,
+            disk: None,
+            geometry,
+            truth: None,
+            mesh_source: Some(config.mesh.clone()),
+        };
+        let other = generate(&SceneOptions {
+            seed: 9,
+            kind: SceneKind::TwoMat,
+            geometry: GeometrySource::Kind(GeometryKind::Torus),
+            width: 32,
+            height: 32,
+            positions: 1,
+            map_size: 8,
+        });
+        matscan_scan::mesh_io::write_ply(&config.mesh, &other.mesh).unwrap();
+        rig.reload_mesh().unwrap();
+        assert_eq!(
+            rig.geometry.mesh.triangle_count(),
+            other.mesh.triangle_count()
+        );
+        assert_ne!(rig.geometry.mesh.triangle_count(), first);
+        std::fs::remove_file(&config.mesh).unwrap();
+        let e = rig.reload_mesh().unwrap_err().to_string();
+        assert!(e.contains("object.ply"), "{e}");
     }
 
     struct NoCamera;

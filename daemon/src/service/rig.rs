@@ -78,6 +78,7 @@ fn open_simulated(c: &SimulatedRigConfig) -> Result<Rig, DriverError> {
         disk: Some(Box::new(rig.disk)),
         geometry,
         truth: Some(Box::new(truth)),
+        mesh_source: None,
     })
 }
 

@@ -81,6 +81,10 @@ pub struct Rig {
     pub geometry: RigGeometry,
     /// `Some` for the simulated rig.
     pub truth: Option<Box<dyn TruthSource>>,
+    /// Where the object's mesh is re-read before every capture (the 3D
+    /// scanner's export path on a real rig); `None`: the geometry's mesh is
+    /// fixed (the simulated rig's scene).
+    pub mesh_source: Option<PathBuf>,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -444,6 +448,15 @@ impl Rig {
                 device: "projector".to_string(),
                 reason: "this rig has no projector, but the capture plan asks for one".to_string(),
             })
+    }
+
+    /// Re-reads the object's mesh from [`Rig::mesh_source`], if any: the
+    /// scanner software exports each new object there before the press.
+    pub fn reload_mesh(&mut self) -> Result<(), ScanError> {
+        if let Some(path) = &self.mesh_source {
+            self.geometry.mesh = matscan_scan::mesh_io::read_mesh(path)?;
+        }
+        Ok(())
     }
 
     /// What the rig can capture: a projector photo needs a projector driver

@@ -279,17 +279,18 @@ fn run_job(
         .get(&profile_name)
         .cloned()
         .unwrap_or_default();
-    if rig.is_none() {
+    let was_open = rig.is_some();
+    if !was_open {
         tracing::info!("opening the rig: {}", config.rig.describe());
         *rig = Some(super::rig::open(&config.rig).map_err(|e| format!("opening the rig: {e}"))?);
     }
     let Some(r) = rig.as_mut() else {
         return Err("the rig is not open".into());
     };
-    if let super::config::RigChoice::Hardware(h) = &config.rig {
-        // The scanner software exports each new object's mesh to the same
-        // path before the press.
-        r.geometry.mesh = super::hardware::read_mesh(&h.mesh).map_err(|e| e.to_string())?;
+    if was_open {
+        // Opening just read it.
+        r.reload_mesh()
+            .map_err(|e| format!("reading the object's mesh: {e}"))?;
     }
     let plan = plan(&profile, r.geometry.checker_periods, r.capabilities());
     let target = next_scan_path(&config.scans).map_err(|e| e.to_string())?;

@@ -176,6 +176,7 @@ fn without_a_turntable_the_sequencer_waits_for_the_operators_press() {
         disk: None,
         geometry,
         truth: None,
+        mesh_source: None,
     };
     // The operator: turns the object by hand, then presses.
     let operator = std::thread::spawn(move || {
