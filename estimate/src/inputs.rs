@@ -33,6 +33,7 @@ use matscan_calib::white_reference::ycbcr;
 use matscan_calib::{CalibError, ScanCalibration};
 use matscan_scan::raster::{MaskRaster, RgbRaster, ScalarRaster};
 use matscan_scan::{Bundle, ScanError};
+use std::collections::HashMap;
 
 /// `2 clamp(v, 0, 1) - 1`; non-finite values become 0 first.
 pub fn centre(v: f32) -> f32 {
@@ -113,6 +114,8 @@ pub struct ViewPlanes {
     depth: Vec<f32>,
     white_ambient: [f32; 3],
     white_lit: [f32; 3],
+    ambient_exposure: f64,
+    lit_exposure: f64,
 }
 
 impl ViewPlanes {
@@ -155,6 +158,44 @@ impl ViewPlanes {
     /// ambient), ambient exposure units; `[1; 3]` without a reference.
     pub fn white_light(&self) -> [f32; 3] {
         [0, 1, 2].map(|c| self.white_lit[c] - self.white_ambient[c])
+    }
+
+    /// Exposure of the position's ambient capture (the planes' units), s.
+    pub fn ambient_exposure(&self) -> f64 {
+        self.ambient_exposure
+    }
+
+    /// Exposure of the view's lit capture, s.
+    pub fn lit_exposure(&self) -> f64 {
+        self.lit_exposure
+    }
+}
+
+/// Photos already read, each scaled to its position's ambient exposure and
+/// still in its own camera image: views of one position share its ambient,
+/// backlit and checker photos, and assemblies with different references
+/// (the pipeline's every-position mode) share all of them, so each photo
+/// is read and decoded once. Holds every photo it read until dropped.
+#[derive(Debug, Default)]
+pub struct Photos {
+    read: HashMap<(String, String), RgbRaster>,
+}
+
+impl Photos {
+    /// The photo of `capture` at `position`, scaled to the ambient exposure.
+    fn get(
+        &mut self,
+        bundle: &Bundle,
+        position: &str,
+        capture: &str,
+        ambient_exposure: f64,
+    ) -> Result<&RgbRaster, InputsError> {
+        let key = (position.to_string(), capture.to_string());
+        if !self.read.contains_key(&key) {
+            let image = photo(bundle, position, capture, ambient_exposure)?;
+            self.read.insert(key.clone(), image);
+        }
+        Ok(&self.read[&key])
     }
 }
 
@@ -199,6 +240,18 @@ impl SceneInputs {
         calibration: &ScanCalibration,
         set: &ViewSet,
     ) -> Result<SceneInputs, InputsError> {
+        Self::assemble_with(bundle, calibration, set, &mut Photos::default())
+    }
+
+    /// [`assemble`](Self::assemble), taking photos from `photos` (and
+    /// adding those it reads): for assembling the same views with several
+    /// references.
+    pub fn assemble_with(
+        bundle: &Bundle,
+        calibration: &ScanCalibration,
+        set: &ViewSet,
+        photos: &mut Photos,
+    ) -> Result<SceneInputs, InputsError> {
         let reference = calibration
             .position(&set.reference)
             .ok_or_else(|| missing(&set.reference, "maps"))?;
@@ -207,7 +260,14 @@ impl SceneInputs {
         let mut warnings = Vec::new();
         let mut views = Vec::with_capacity(set.views.len());
         for view in &set.views {
-            views.push(view_planes(bundle, calibration, set, view, &mut warnings)?);
+            views.push(view_planes(
+                bundle,
+                calibration,
+                set,
+                view,
+                photos,
+                &mut warnings,
+            )?);
         }
         Ok(SceneInputs {
             reference: set.reference.clone(),
@@ -387,7 +447,9 @@ fn photo(
     Ok(image)
 }
 
-fn exposure_scale(ambient: f64, capture: f64) -> f32 {
+/// What photos taken at `capture` seconds are multiplied by to read in
+/// `ambient` exposure units; 1 when either is unusable.
+pub(crate) fn exposure_scale(ambient: f64, capture: f64) -> f32 {
     if capture > 0.0 && ambient.is_finite() && capture.is_finite() {
         (ambient / capture) as f32
     } else {
@@ -400,6 +462,7 @@ fn view_planes(
     calibration: &ScanCalibration,
     set: &ViewSet,
     view: &View,
+    photos: &mut Photos,
     warnings: &mut Vec<String>,
 ) -> Result<ViewPlanes, InputsError> {
     let name = view.to_string();
@@ -429,10 +492,11 @@ fn view_planes(
                 .ok_or_else(|| missing(&name, "correspondence with the reference"))?,
         )
     };
-    let rgb = |image: RgbRaster, label: &str| -> Result<Vec<[f32; 3]>, InputsError> {
+    let mut rgb = |capture: &str| -> Result<Vec<[f32; 3]>, InputsError> {
+        let image = photos.get(bundle, &view.position, capture, ambient_exposure)?;
         Ok(match warp {
-            Some(c) => c.warp_rgb(&image, label)?.data,
-            None => image.data,
+            Some(c) => c.warp_rgb(image, capture)?.data,
+            None => image.data.clone(),
         })
     };
     let scalar = |map: &ScalarRaster, label: &str| -> Result<Vec<f32>, InputsError> {
@@ -454,33 +518,14 @@ fn view_planes(
             }
         })
         .collect();
-    let ambient = rgb(
-        photo(
-            bundle,
-            &view.position,
-            &ambient_capture.name,
-            ambient_exposure,
-        )?,
-        &ambient_capture.name,
-    )?;
-    let lit = rgb(
-        photo(bundle, &view.position, &view.capture, ambient_exposure)?,
-        &view.capture,
-    )?;
-    let backlit = match position.backlit() {
-        Some(c) => Some(rgb(
-            photo(bundle, &view.position, &c.name, ambient_exposure)?,
-            &c.name,
-        )?),
-        None => None,
-    };
-    let checker = match position.pattern_captures().next() {
-        Some(c) => Some(rgb(
-            photo(bundle, &view.position, &c.name, ambient_exposure)?,
-            &c.name,
-        )?),
-        None => None,
-    };
+    let ambient = rgb(&ambient_capture.name)?;
+    let lit = rgb(&view.capture)?;
+    let backlit = position.backlit().map(|c| rgb(&c.name)).transpose()?;
+    let checker = position
+        .pattern_captures()
+        .next()
+        .map(|c| rgb(&c.name))
+        .transpose()?;
     let geometry = &calib.maps.geometry;
     let cos_nl = scalar(&light.cos_nl, "cos_nl")?;
     let cos_vl = scalar(&light.cos_vl, "cos_vl")?;
@@ -523,6 +568,8 @@ fn view_planes(
         depth,
         white_ambient,
         white_lit,
+        ambient_exposure,
+        lit_exposure,
     })
 }
 

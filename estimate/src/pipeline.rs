@@ -23,7 +23,7 @@
 //! `inputs`), the plan (see `plan`), file layout (see `output`), the fit
 //! (see `refine`).
 
-use crate::inputs::{rgb_of_ycbcr, uncentre, Dependencies, InputsError, SceneInputs};
+use crate::inputs::{rgb_of_ycbcr, uncentre, Dependencies, InputsError, Photos, SceneInputs};
 use crate::metrics::error_metrics;
 use crate::models::{ModelSource, Models, ModelsError};
 use crate::network::InputError;
@@ -183,8 +183,14 @@ pub fn estimate(
     timings.calibration_s = t.elapsed().as_secs_f64();
 
     let t = Instant::now();
-    let inputs = SceneInputs::assemble(&bundle, &calibration, &set)?;
+    // Every position sees the same photos: read each once (kept only when
+    // more positions follow).
+    let mut photos = Photos::default();
+    let inputs = SceneInputs::assemble_with(&bundle, &calibration, &set, &mut photos)?;
     timings.inputs_s = t.elapsed().as_secs_f64();
+    if options.references == References::First {
+        photos = Photos::default();
+    }
 
     let available = Availability {
         backlit: inputs.views.iter().any(|v| v.has_backlit()),
@@ -237,7 +243,7 @@ pub fn estimate(
                 continue;
             };
             let t = Instant::now();
-            let inputs = SceneInputs::assemble(&bundle, &calibration, &other)?;
+            let inputs = SceneInputs::assemble_with(&bundle, &calibration, &other, &mut photos)?;
             timings.inputs_s += t.elapsed().as_secs_f64();
             for w in &inputs.warnings {
                 if !warnings.contains(w) {
@@ -372,15 +378,7 @@ impl RefineTally {
         if !options.enabled() {
             return None;
         }
-        let fitted: Vec<String> = [
-            ParamKind::Basecolor,
-            ParamKind::Roughness,
-            ParamKind::Metallic,
-        ]
-        .into_iter()
-        .filter(|k| *plan.decision(*k) == Decision::Estimate)
-        .map(|k| k.name().to_string())
-        .collect();
+        let mut fitted = Vec::new();
         let mut kept: BTreeMap<String, String> = NOT_FITTED
             .iter()
             .map(|(k, why)| (k.to_string(), why.to_string()))
@@ -390,7 +388,9 @@ impl RefineTally {
             ParamKind::Roughness,
             ParamKind::Metallic,
         ] {
-            if *plan.decision(kind) != Decision::Estimate {
+            if *plan.decision(kind) == Decision::Estimate {
+                fitted.push(kind.name().to_string());
+            } else {
                 kept.insert(
                     kind.name().to_string(),
                     "given or skipped: held at that value".to_string(),

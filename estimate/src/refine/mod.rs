@@ -270,16 +270,10 @@ pub fn refine_scene(
     let mut lighting: Vec<Option<ViewLighting>> = Vec::with_capacity(inputs.views.len());
     for (index, planes) in inputs.views.iter().enumerate() {
         let view = &planes.view;
-        let network = || -> Result<Option<ViewLighting>, RefineError> {
-            let capture = bundle.capture(&view.position, &view.capture)?;
-            let ambient = bundle
-                .position(&view.position)?
-                .ambient()
-                .map_or(capture.exposure_s, |c| c.exposure_s);
-            let clip = clip_level(capture.exposure_s, ambient, options.saturation);
-            Ok(illumination
+        let network = || {
+            illumination
                 .and_then(|all| all.get(index))
-                .map(|e| network_lighting(planes, e, clip)))
+                .map(|e| network_lighting(planes, e, clip_level(planes, options.saturation)))
         };
         let chosen = match options.illumination {
             IlluminationSource::Calibration => {
@@ -292,7 +286,7 @@ pub fn refine_scene(
                 )? {
                     Some(l) => Some(l),
                     None => {
-                        let fallback = network()?;
+                        let fallback = network();
                         notes.push(format!(
                             "view {view}: the manifest gives no light intensity or a \
                              patterned light; {}",
@@ -307,7 +301,7 @@ pub fn refine_scene(
                 }
             }
             IlluminationSource::Network => {
-                let l = network()?;
+                let l = network();
                 if l.is_none() {
                     notes.push(format!(
                         "view {view}: no network illumination; left out of the refinement"

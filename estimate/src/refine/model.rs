@@ -25,6 +25,7 @@
 //! random walk is not local); transmission is held at the network's value.
 
 use glam::Vec3;
+use matscan_calib::photos::luma;
 use matscan_sim::bsdf::{Bsdf, DELTA_ALPHA};
 use matscan_sim::material::{Material, DEFAULT_SUBSURFACE_RADIUS};
 use std::f64::consts::PI;
@@ -172,7 +173,7 @@ pub fn predict(bsdf: &Bsdf, o: &Observation) -> [f64; 3] {
 pub fn white_response(wo: Vec3, wi: Vec3) -> f32 {
     let white = Bsdf::new(&Material::WHITE_DIFFUSE, Vec3::Z, Vec3::Z);
     let v = white.eval(wo, wi).value;
-    let r = std::f32::consts::PI * (0.299 * v.x + 0.587 * v.y + 0.114 * v.z);
+    let r = std::f32::consts::PI * luma(v.to_array());
     finite_or(r, 0.0)
 }
 

@@ -19,7 +19,7 @@
 use super::loss::{view_weight, ViewEvidence};
 use super::model::{directions, white_response, Observation};
 use super::RefineError;
-use crate::inputs::{SceneInputs, ViewPlanes};
+use crate::inputs::{exposure_scale, SceneInputs, ViewPlanes};
 use matscan_calib::photos::luma;
 use matscan_calib::ScanCalibration;
 use matscan_scan::{Bundle, Pattern};
@@ -71,9 +71,7 @@ pub fn calibrated_lighting(
         Some(Pattern::Uniform { level }) if level.is_finite() => level.clamp(0.0, 1.0),
         Some(_) => return Ok(None),
     };
-    let ambient_exposure = position
-        .ambient()
-        .map_or(capture.exposure_s, |c| c.exposure_s);
+    let ambient_exposure = planes.ambient_exposure();
     let exposure = if ambient_exposure.is_finite() && ambient_exposure > 0.0 {
         ambient_exposure
     } else {
@@ -110,7 +108,7 @@ pub fn calibrated_lighting(
     Ok(Some(ViewLighting {
         light,
         lit,
-        clip: clip_level(capture.exposure_s, ambient_exposure, saturation),
+        clip: clip_level(planes, saturation),
     }))
 }
 
@@ -144,15 +142,10 @@ pub fn network_lighting(planes: &ViewPlanes, illumination: &[f32], clip: f32) ->
     }
 }
 
-/// A clipping level in ambient exposure units for a photo taken at
-/// `exposure` and scaled to `ambient_exposure` (as `inputs` does).
-pub fn clip_level(exposure: f64, ambient_exposure: f64, saturation: f32) -> f32 {
-    let k = if exposure > 0.0 && ambient_exposure.is_finite() && exposure.is_finite() {
-        (ambient_exposure / exposure) as f32
-    } else {
-        1.0
-    };
-    saturation * k
+/// The clipping level of `planes`' lit photo in ambient exposure units
+/// (the photo scaled as `inputs` scales it).
+pub fn clip_level(planes: &ViewPlanes, saturation: f32) -> f32 {
+    saturation * exposure_scale(planes.ambient_exposure(), planes.lit_exposure())
 }
 
 /// Every view's observation of reference pixel `i` (views whose lighting

@@ -440,9 +440,18 @@ pub fn train(
 
     let start = Instant::now();
     let seconds = |start: &Instant| past_seconds + start.elapsed().as_secs_f64();
-    let mut interval = (0.0f64, 0usize);
-    let mut last_train = None;
-    let mut last_test = None;
+    let mut log = LossLog {
+        config,
+        tests: &tests,
+        device,
+        csv: &csv,
+        png: &png,
+        start,
+        past_seconds,
+        interval: (0.0, 0),
+        last_train: None,
+        last_test: None,
+    };
     let mut non_finite = 0usize;
     let mut last_phase = config.phase(step);
     let mut last_views = 0usize;
@@ -472,8 +481,8 @@ pub fn train(
             non_finite = 0;
             let grads = GradientsParams::from_grads(loss.backward(), &net);
             net = optimizer.step(config.learning_rate, net, grads);
-            interval.0 += value;
-            interval.1 += 1;
+            log.interval.0 += value;
+            log.interval.1 += 1;
         } else {
             non_finite += 1;
             if non_finite >= 20 {
@@ -489,23 +498,7 @@ pub fn train(
         });
         let log_now = config.log_every > 0 && step % config.log_every == 0;
         if log_now || step == config.steps {
-            log_row(
-                config,
-                &net,
-                &tests,
-                device,
-                &csv,
-                &png,
-                step,
-                phase,
-                last_views,
-                &mut interval,
-                &start,
-                past_seconds,
-                &mut last_train,
-                &mut last_test,
-                progress,
-            )?;
+            log.row(&net, step, phase, last_views, progress)?;
         }
         if config.checkpoint_every > 0 && step % config.checkpoint_every == 0 {
             let dir = checkpoint::save(
@@ -518,25 +511,8 @@ pub fn train(
             progress(Event::Checkpoint(dir));
         }
     }
-    if interval.1 > 0 {
-        log_row(
-            config,
-            &net,
-            &tests,
-            device,
-            &csv,
-            &png,
-            step,
-            last_phase,
-            last_views,
-            &mut interval,
-            &start,
-            past_seconds,
-            &mut last_train,
-            &mut last_test,
-            progress,
-        )?;
-    }
+    // What the steps since the last row (a time limit's break) add.
+    log.row(&net, step, last_phase, last_views, progress)?;
     let dir = checkpoint::save(
         &config.out,
         &net,
@@ -552,63 +528,70 @@ pub fn train(
     Ok(TrainSummary {
         steps: step,
         weights: weights_path,
-        train_loss: last_train,
-        test_loss: last_test,
+        train_loss: log.last_train,
+        test_loss: log.last_test,
         seconds: seconds(&start),
     })
 }
 
-/// Writes one row of `loss.csv` (evaluating the test scenes) and redraws
-/// the plot.
-#[allow(clippy::too_many_arguments)]
-fn log_row(
-    config: &TrainConfig,
-    net: &ParamNet,
-    tests: &[SceneData],
-    device: &Device,
-    csv: &Path,
-    png: &Path,
-    step: usize,
-    phase: Phase,
-    views: usize,
-    interval: &mut (f64, usize),
-    start: &Instant,
+/// `loss.csv` and `loss.png` of a run, and the losses since the last row.
+struct LossLog<'a> {
+    config: &'a TrainConfig,
+    tests: &'a [SceneData],
+    device: &'a Device,
+    csv: &'a Path,
+    png: &'a Path,
+    start: Instant,
     past_seconds: f64,
-    last_train: &mut Option<f64>,
-    last_test: &mut Option<f64>,
-    progress: &mut dyn FnMut(Event),
-) -> Result<(), TrainError> {
-    if interval.1 == 0 {
-        return Ok(());
-    }
-    let train = interval.0 / interval.1 as f64;
-    *interval = (0.0, 0);
-    let test = if tests.is_empty() {
-        None
-    } else {
-        // No backward pass: the graph built here is dropped unused.
-        let mut sum = 0.0;
-        for scene in tests {
-            sum += evaluate(net, scene, config.max_views, device)?;
+    /// Sum and count of the training losses since the last row.
+    interval: (f64, usize),
+    last_train: Option<f64>,
+    last_test: Option<f64>,
+}
+
+impl LossLog<'_> {
+    /// Writes one row of `loss.csv` (evaluating the test scenes) and
+    /// redraws the plot; nothing when no step ran since the last row.
+    fn row(
+        &mut self,
+        net: &ParamNet,
+        step: usize,
+        phase: Phase,
+        views: usize,
+        progress: &mut dyn FnMut(Event),
+    ) -> Result<(), TrainError> {
+        if self.interval.1 == 0 {
+            return Ok(());
         }
-        Some(sum / tests.len() as f64)
-    };
-    let row = plot::Row {
-        step,
-        phase: phase.name().to_string(),
-        views,
-        train,
-        test,
-        seconds: past_seconds + start.elapsed().as_secs_f64(),
-    };
-    plot::append(csv, &row)?;
-    plot::draw(&plot::read_rows(csv)?, png)?;
-    *last_train = Some(train);
-    if test.is_some() {
-        *last_test = test;
+        let train = self.interval.0 / self.interval.1 as f64;
+        self.interval = (0.0, 0);
+        let test = if self.tests.is_empty() {
+            None
+        } else {
+            // No backward pass: the graph built here is dropped unused.
+            let mut sum = 0.0;
+            for scene in self.tests {
+                sum += evaluate(net, scene, self.config.max_views, self.device)?;
+            }
+            Some(sum / self.tests.len() as f64)
+        };
+        let row = plot::Row {
+            step,
+            phase: phase.name().to_string(),
+            views,
+            train,
+            test,
+            seconds: self.past_seconds + self.start.elapsed().as_secs_f64(),
+        };
+        plot::append(self.csv, &row)?;
+        plot::draw(&plot::read_rows(self.csv)?, self.png)?;
+        self.last_train = Some(train);
+        if test.is_some() {
+            self.last_test = test;
+        }
+        progress(Event::Logged(row));
+        Ok(())
     }
-    progress(Event::Logged(row));
-    Ok(())
 }
 
 #[cfg(test)]
