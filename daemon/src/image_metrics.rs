@@ -60,11 +60,6 @@ pub fn reinhard(x: f32) -> f32 {
     x / (1.0 + x)
 }
 
-/// [`tone_map`] on every channel.
-pub fn tone_mapped(image: &RgbRaster) -> RgbRaster {
-    image.map(|p| p.map(tone_map))
-}
-
 /// Rec. 709 luminance of the tone-mapped image, in [0, 1).
 pub fn luma(image: &RgbRaster) -> ScalarRaster {
     image.map(|p| {

@@ -13,10 +13,10 @@
 //! here is the scan's per-position truth maps (`truth/<position>/*.exr`,
 //! every position that has them) baked into the same UV atlas, at the same
 //! size and with the same fusion and hole filling as the estimate
-//! (`matscan_bake::bake_truth`). It therefore differs from the scene as
-//! simulated where no camera saw the surface (hole-filled), in detail finer
-//! than a camera pixel, and in the subsurface radius (the renderer's
-//! default for both). The comparison isolates the estimator's error from
+//! (`matscan_bake::read_truth_maps` then `bake_maps`, as `bake_truth`
+//! does). It therefore differs from the scene as simulated where no camera
+//! saw the surface (hole-filled), in detail finer than a camera pixel, and
+//! in the subsurface radius (the renderer's default for both). The comparison isolates the estimator's error from
 //! the baking's.
 //!
 //! Noise: the table's `noise` columns compare the true material with
@@ -37,11 +37,13 @@ use matscan::image_metrics::{compare, reinhard, Similarity};
 use matscan::rerender::{
     material_from_textures, LightName, Lighting, RenderSettings, Rendered, ScanObject,
 };
-use matscan_bake::{bake_scan, bake_truth, read_textures, texture_dir, BakeOptions, BakedTextures};
+use matscan_bake::{
+    bake_maps, bake_scan, read_textures, read_truth_maps, texture_dir, BakeOptions, BakedTextures,
+};
 use matscan_estimate::output::ResultFile;
 use matscan_scan::atomic::write_atomic;
 use matscan_scan::image_io::{write_preview_png, write_rgb_exr};
-use matscan_scan::{Bundle, Precision, TruthMap};
+use matscan_scan::{Bundle, Precision};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -98,26 +100,20 @@ pub fn estimated_textures(
     Ok((t, true))
 }
 
-/// The true textures of a simulated scan, baked as `like` was (same size);
-/// `None` for a scan without truth maps.
+/// The true textures of a simulated scan, baked as `like` was (same size)
+/// and as `matscan_bake::bake_truth` bakes them; `None` for a scan without
+/// truth maps. Each truth file is read once.
 pub fn true_textures(bundle: &Bundle, like: &BakedTextures) -> Result<Option<BakedTextures>> {
-    let has_truth = bundle
-        .manifest
-        .positions
-        .iter()
-        .map(|p| bundle.read_truth(&p.name, &TruthMap::Mask))
-        .collect::<Result<Vec<_>, _>>()?
-        .iter()
-        .any(Option::is_some);
-    if !has_truth {
+    let context = || format!("baking the truth maps of {}", bundle.root.display());
+    let positions = read_truth_maps(bundle).with_context(context)?;
+    if positions.is_empty() {
         return Ok(None);
     }
     let options = BakeOptions {
         size: like.width(),
         ..BakeOptions::default()
     };
-    let t = bake_truth(bundle, &options)
-        .with_context(|| format!("baking the truth maps of {}", bundle.root.display()))?;
+    let t = bake_maps(bundle, &positions, &options).with_context(context)?;
     Ok(Some(t))
 }
 
@@ -153,6 +149,9 @@ fn write_render(dir: &Path, stem: &str, r: &Rendered) -> Result<()> {
 
 /// Runs `matscan render`.
 pub fn run(args: &RenderArgs) -> Result<()> {
+    if args.orbit == Some(0) {
+        bail!("--orbit 0: expected at least one view");
+    }
     let bundle = Bundle::open(&args.scan)?;
     let estimate_dir = args
         .estimate
@@ -169,9 +168,6 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     } else {
         args.light.clone()
     };
-    if args.orbit == Some(0) {
-        bail!("--orbit 0: expected at least one view");
-    }
     let shots = object.shots(&lightings, args.orbit);
     let settings = RenderSettings::new(args.size, args.samples);
     let (estimated, baked_now) = estimated_textures(&args.scan, &estimate_dir, args.texture_size)?;

@@ -184,18 +184,18 @@ impl FromStr for Lighting {
             Some(n) => (n, true),
             None => (s, false),
         };
+        let unknown = |name: String| RerenderError::UnknownLighting {
+            name,
+            expected: LightName::ALL.map(LightName::name).join(", "),
+        };
         let light = LightName::ALL
             .into_iter()
             .find(|l| l.name() == name)
-            .ok_or_else(|| RerenderError::UnknownLighting {
-                name: s.to_string(),
-                expected: LightName::ALL.map(LightName::name).join(", "),
-            })?;
+            .ok_or_else(|| unknown(s.to_string()))?;
         if light == LightName::None && !environment {
-            return Err(RerenderError::UnknownLighting {
-                name: format!("{s} (no light and no environment renders black)"),
-                expected: LightName::ALL.map(LightName::name).join(", "),
-            });
+            return Err(unknown(format!(
+                "{s} (no light and no environment renders black)"
+            )));
         }
         Ok(Lighting { light, environment })
     }
@@ -566,9 +566,11 @@ pub fn material_from_textures(textures: &BakedTextures) -> MaterialField {
         .map(|(s, (m, t))| authored(*s, (1.0 - m) * (1.0 - t)))
         .collect();
     let map = |data: Vec<f32>| {
-        Texture::Map(matscan_scan::Raster::<f32>::from_fn(w, h, |x, y| {
-            data[y as usize * w as usize + x as usize]
-        }))
+        Texture::Map(matscan_scan::Raster {
+            width: w,
+            height: h,
+            data,
+        })
     };
     MaterialField {
         basecolor: match textures.basecolor() {

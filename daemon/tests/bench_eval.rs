@@ -1,22 +1,10 @@
 //! `matscan bench` and `matscan eval`'s tables end to end on tiny simulated
 //! sets (32 px, one or two scenes), with the embedded weights.
 
-use std::path::Path;
-use std::process::Command;
+mod daemon_support;
 
-fn matscan(args: &[&str]) -> std::process::Output {
-    let o = Command::new(env!("CARGO_BIN_EXE_matscan"))
-        .args(args)
-        .output()
-        .expect("run matscan");
-    assert!(
-        o.status.success(),
-        "matscan {args:?} failed:\n{}\n{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    );
-    o
-}
+use daemon_support::{matscan_ok, simulate_sphere};
+use std::path::Path;
 
 /// Splits a CSV line written by matscan (no quoted fields in these tests).
 fn fields(line: &str) -> Vec<&str> {
@@ -28,7 +16,7 @@ fn bench_quick_writes_a_row_per_setting_with_finite_figures_and_a_png() {
     let tmp = tempfile::tempdir().unwrap();
     let data = tmp.path().join("set");
     let out = tmp.path().join("out");
-    let o = matscan(&[
+    let stdout = matscan_ok(&[
         "bench",
         "--quick",
         "--data",
@@ -44,7 +32,6 @@ fn bench_quick_writes_a_row_per_setting_with_finite_figures_and_a_png() {
         "--skip",
         "width",
     ]);
-    let stdout = String::from_utf8_lossy(&o.stdout);
     assert!(
         stdout.contains("not built (no GPU backend in this build)"),
         "{stdout}"
@@ -114,23 +101,8 @@ fn bench_quick_writes_a_row_per_setting_with_finite_figures_and_a_png() {
 }
 
 fn simulate(out: &Path, kind: &str, seed: &str) {
-    matscan(&[
-        "simulate",
-        "--out",
-        out.to_str().unwrap(),
-        "--size",
-        "32",
-        "--positions",
-        "2",
-        "--samples",
-        "2",
-        "--geometry",
-        "sphere",
-        "--kind",
-        kind,
-        "--seed",
-        seed,
-    ]);
+    let out = out.to_str().unwrap();
+    simulate_sphere(32, 2, 2, &["--out", out, "--kind", kind, "--seed", seed]);
 }
 
 #[test]
@@ -145,7 +117,7 @@ fn eval_tables_group_scans_by_kind_and_overall_weighs_every_scene() {
     simulate(&c, "2mat", "5");
     let csv_path = tmp.path().join("eval.csv");
     // Two scan folders and a folder of scans in one call.
-    let o = matscan(&[
+    let stdout = matscan_ok(&[
         "eval",
         a.to_str().unwrap(),
         b.to_str().unwrap(),
@@ -156,7 +128,6 @@ fn eval_tables_group_scans_by_kind_and_overall_weighs_every_scene() {
         "--csv",
         csv_path.to_str().unwrap(),
     ]);
-    let stdout = String::from_utf8_lossy(&o.stdout);
     assert!(stdout.contains("MAD by scene group"), "{stdout}");
     assert!(stdout.contains("per scene: run time and MAD"), "{stdout}");
 

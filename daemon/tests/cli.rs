@@ -1,53 +1,21 @@
 //! The `matscan` binary end to end: the commands a user types, on small
 //! simulated scans.
 
+mod daemon_support;
+
+use daemon_support::{matscan, simulate_sphere, stdout, weights_dir};
 use std::path::Path;
-use std::process::Command;
 
-fn matscan(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_matscan"))
-        .args(args)
-        .output()
-        .expect("run matscan")
-}
-
-fn stdout(o: &std::process::Output) -> String {
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
-
+/// A 48 px sphere scan with two positions.
 fn simulate(out: &Path) {
-    let o = matscan(&[
-        "simulate",
-        "--out",
-        out.to_str().unwrap(),
-        "--size",
-        "48",
-        "--positions",
-        "2",
-        "--samples",
-        "2",
-        "--geometry",
-        "sphere",
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-}
-
-/// Small random networks for all five parameters, as a `--weights` folder.
-fn test_weights(dir: &Path) -> std::path::PathBuf {
-    use matscan_estimate::{cpu_device, Models, ParamKind};
-    let weights = dir.join("weights");
-    Models::seeded(&ParamKind::ALL, 8, 5, &cpu_device())
-        .unwrap()
-        .save_dir(&weights)
-        .unwrap();
-    weights
+    simulate_sphere(48, 2, 2, &["--out", out.to_str().unwrap()]);
 }
 
 #[test]
 fn demo_captures_through_the_daemon_estimates_and_prints_errors_and_timings() {
     let tmp = tempfile::tempdir().unwrap();
     let root = tmp.path().join("demo");
-    let weights = test_weights(tmp.path());
+    let weights = weights_dir(tmp.path(), 5);
     let args = [
         "demo",
         "--out",
@@ -97,7 +65,7 @@ fn estimate_writes_the_contract_folder_and_reports_each_parameter() {
     let tmp = tempfile::tempdir().unwrap();
     let scan = tmp.path().join("scan");
     simulate(&scan);
-    let weights = test_weights(tmp.path());
+    let weights = weights_dir(tmp.path(), 5);
     let o = matscan(&[
         "estimate",
         scan.to_str().unwrap(),
@@ -233,22 +201,12 @@ fn a_malformed_manifest_is_reported_with_file_and_key() {
 fn train_writes_weights_a_loss_history_and_a_plot() {
     let tmp = tempfile::tempdir().unwrap();
     let data = tmp.path().join("data");
-    let o = matscan(&[
-        "simulate",
-        "--dataset",
-        data.to_str().unwrap(),
-        "--count",
-        "1",
-        "--size",
-        "24",
-        "--positions",
-        "1",
-        "--samples",
-        "1",
-        "--geometry",
-        "sphere",
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    simulate_sphere(
+        24,
+        1,
+        1,
+        &["--dataset", data.to_str().unwrap(), "--count", "1"],
+    );
     let out = tmp.path().join("run");
     let o = matscan(&[
         "train",

@@ -2,57 +2,28 @@
 //! simulated scan (32 px, two positions) estimated with small random
 //! networks: what files they write and what they report.
 
-use std::path::Path;
-use std::process::Command;
+mod daemon_support;
 
-fn matscan(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_matscan"))
-        .args(args)
-        .output()
-        .expect("run matscan")
-}
-
-fn ok(o: &std::process::Output) -> String {
-    assert!(
-        o.status.success(),
-        "stdout:\n{}\nstderr:\n{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    );
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
+use daemon_support::{matscan, matscan_ok, simulate_sphere, weights_dir};
+use std::path::{Path, PathBuf};
 
 /// A 32 px sphere scan with two positions and its estimate (random
 /// networks: the material is wrong, which the scores must show).
-fn estimated_scan(dir: &Path) -> (std::path::PathBuf, std::path::PathBuf) {
-    use matscan_estimate::{cpu_device, Models, ParamKind};
+fn estimated_scan(dir: &Path) -> (PathBuf, PathBuf) {
     let scan = dir.join("scan");
-    ok(&matscan(&[
-        "simulate",
-        "--out",
-        scan.to_str().unwrap(),
-        "--size",
-        "32",
-        "--positions",
-        "2",
-        "--samples",
-        "2",
-        "--geometry",
-        "sphere",
-        "--kind",
-        "2mat",
-    ]));
-    let weights = dir.join("weights");
-    Models::seeded(&ParamKind::ALL, 8, 5, &cpu_device())
-        .unwrap()
-        .save_dir(&weights)
-        .unwrap();
-    ok(&matscan(&[
+    simulate_sphere(
+        32,
+        2,
+        2,
+        &["--out", scan.to_str().unwrap(), "--kind", "2mat"],
+    );
+    let weights = weights_dir(dir, 5);
+    matscan_ok(&[
         "estimate",
         scan.to_str().unwrap(),
         "--weights",
         weights.to_str().unwrap(),
-    ]));
+    ]);
     (scan, weights)
 }
 
@@ -70,7 +41,7 @@ fn render_writes_estimate_and_truth_images_and_scores_them() {
     let tmp = tempfile::tempdir().unwrap();
     let (scan, _) = estimated_scan(tmp.path());
     let out = tmp.path().join("renders");
-    let stdout = ok(&matscan(&[
+    let stdout = matscan_ok(&[
         "render",
         scan.to_str().unwrap(),
         "--light",
@@ -83,7 +54,7 @@ fn render_writes_estimate_and_truth_images_and_scores_them() {
         "4",
         "--texture-size",
         "64",
-    ]));
+    ]);
     assert!(stdout.contains("baked the estimate in memory"), "{stdout}");
     for stem in ["ref-key-left", "ref-top+env"] {
         for ext in ["exr", "png"] {
@@ -115,7 +86,7 @@ fn render_writes_estimate_and_truth_images_and_scores_them() {
 
     // Orbit views, lit by a light at each camera.
     let orbit = tmp.path().join("orbit");
-    ok(&matscan(&[
+    matscan_ok(&[
         "render",
         scan.to_str().unwrap(),
         "--orbit",
@@ -128,7 +99,7 @@ fn render_writes_estimate_and_truth_images_and_scores_them() {
         "2",
         "--texture-size",
         "32",
-    ]));
+    ]);
     for k in 0..3 {
         assert!(orbit.join(format!("orbit-{k:02}-camera.png")).is_file());
     }
@@ -138,19 +109,7 @@ fn render_writes_estimate_and_truth_images_and_scores_them() {
 fn render_without_an_estimate_says_what_to_run_and_rejects_unknown_lights() {
     let tmp = tempfile::tempdir().unwrap();
     let scan = tmp.path().join("scan");
-    ok(&matscan(&[
-        "simulate",
-        "--out",
-        scan.to_str().unwrap(),
-        "--size",
-        "16",
-        "--positions",
-        "1",
-        "--samples",
-        "1",
-        "--geometry",
-        "sphere",
-    ]));
+    simulate_sphere(16, 1, 1, &["--out", scan.to_str().unwrap()]);
     let out = tmp.path().join("r");
     let o = matscan(&[
         "render",
@@ -185,7 +144,7 @@ fn eval_textures_adds_texture_and_render_rows() {
     let tmp = tempfile::tempdir().unwrap();
     let (scan, weights) = estimated_scan(tmp.path());
     let csv = tmp.path().join("eval.csv");
-    let stdout = ok(&matscan(&[
+    let stdout = matscan_ok(&[
         "eval",
         scan.to_str().unwrap(),
         "--weights",
@@ -196,7 +155,7 @@ fn eval_textures_adds_texture_and_render_rows() {
         "64",
         "--csv",
         csv.to_str().unwrap(),
-    ]));
+    ]);
     assert!(stdout.contains("textures (64 texels)"), "{stdout}");
     assert!(stdout.contains("orbit-07-camera"), "{stdout}");
     let (header, rows) = csv_rows(&csv);

@@ -1,5 +1,7 @@
 //! Helpers of the daemon tests: a daemon on a temporary socket with the
-//! simulated rig, in a thread of the test process.
+//! simulated rig, in a thread of the test process; and for the tests of
+//! the `matscan` binary, running it, a small simulated sphere scan and
+//! small random networks.
 
 #![allow(dead_code)]
 
@@ -7,6 +9,7 @@ use matscan::service::config::Config;
 use matscan::service::notify::Notifier;
 use matscan::service::server::Server;
 use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::thread::JoinHandle;
@@ -45,16 +48,70 @@ pub fn config_text(socket: &Path, scans: &Path, top: &str, simulated: &str) -> S
     )
 }
 
-/// Small random networks for all five parameters in `dir`, as the daemon's
-/// `[estimate] weights` folder; returns the config section naming them.
+/// Small random networks (seed 3) for all five parameters in `dir`, as the
+/// daemon's `[estimate] weights` folder; returns the config section naming
+/// them.
 pub fn test_weights(dir: &Path) -> String {
+    let weights = weights_dir(dir, 3);
+    format!("[estimate]\nweights = {weights:?}\n")
+}
+
+/// Small random networks for all five parameters, from `seed`, saved in
+/// `dir/weights` (a `--weights` folder); returns that folder.
+pub fn weights_dir(dir: &Path, seed: u64) -> PathBuf {
     use matscan_estimate::{cpu_device, Models, ParamKind};
     let weights = dir.join("weights");
-    Models::seeded(&ParamKind::ALL, 8, 3, &cpu_device())
+    Models::seeded(&ParamKind::ALL, 8, seed, &cpu_device())
         .unwrap()
         .save_dir(&weights)
         .unwrap();
-    format!("[estimate]\nweights = {weights:?}\n")
+    weights
+}
+
+/// Runs the `matscan` binary with `args`.
+pub fn matscan(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_matscan"))
+        .args(args)
+        .output()
+        .expect("run matscan")
+}
+
+/// Its standard output, as text.
+pub fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+/// Runs `matscan` with `args`, asserts it succeeded (showing its output
+/// otherwise) and returns its standard output.
+pub fn matscan_ok(args: &[&str]) -> String {
+    let o = matscan(args);
+    assert!(
+        o.status.success(),
+        "matscan {args:?} failed:\nstdout:\n{}\nstderr:\n{}",
+        stdout(&o),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    stdout(&o)
+}
+
+/// `matscan simulate` of a sphere, `size` px, `positions` positions,
+/// `samples` samples per pixel, plus `extra` flags (at least the output:
+/// `--out DIR`, or `--dataset DIR --count N`); asserts it succeeded.
+pub fn simulate_sphere(size: u32, positions: u32, samples: u32, extra: &[&str]) {
+    let (size, positions, samples) = (size.to_string(), positions.to_string(), samples.to_string());
+    let mut args = vec![
+        "simulate",
+        "--size",
+        &size,
+        "--positions",
+        &positions,
+        "--samples",
+        &samples,
+        "--geometry",
+        "sphere",
+    ];
+    args.extend_from_slice(extra);
+    matscan_ok(&args);
 }
 
 pub struct TestDaemon {
