@@ -36,7 +36,7 @@
 //! pull in the whole reader for a few lines.
 
 use crate::error::BakeError;
-use crate::textures::{texture_dir, write_textures, BakedTextures, TEXTURE_DIR};
+use crate::textures::{clip, texture_dir, write_textures, BakedTextures, TEXTURE_DIR};
 use gltf_json as json;
 use gltf_json::validation::Checked::Valid;
 use gltf_json::validation::USize64;
@@ -212,8 +212,7 @@ fn packed_images(t: &BakedTextures) -> Result<Vec<MaterialImage>, BakeError> {
 }
 
 fn u16_of(v: f32) -> u16 {
-    let v = if v.is_nan() { 0.0 } else { v.clamp(0.0, 1.0) };
-    (v * 65535.0).round() as u16
+    (clip(v) * 65535.0).round() as u16
 }
 
 fn png(bytes: &[u8], w: u32, h: u32, color: ExtendedColorType) -> Result<Vec<u8>, BakeError> {

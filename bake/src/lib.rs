@@ -14,8 +14,9 @@
 //! lives beside the baker so that the daemon's `matscan export` is a thin
 //! edge.
 //!
-//! Crate choices: `rayon` (one texel row per task); `image` (PNG only) for
-//! the 16-bit textures, as the scan crate does.
+//! Crate choices: `rayon` (one texel row per task); the texture files go
+//! through `matscan_scan::image_io`, `image` (PNG only) encodes the glTF
+//! export's packed textures.
 
 pub mod atlas;
 pub mod bake;

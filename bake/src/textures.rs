@@ -13,20 +13,23 @@
 //!
 //! In memory every value is linear. Writing clips to `[0, 1]` (the range of
 //! every Principled parameter matscan estimates) and maps NaN to 0, so a
-//! file is always valid; every file is written atomically.
+//! file is always valid; every file is written atomically. The files are
+//! read and written by `matscan_scan::image_io` (reading takes any nonzero
+//! coverage value as measured, as it does for every mask).
 //!
 //! Boundaries: only the files; baking is [`crate::bake`]'s job.
 
 use crate::error::BakeError;
 use glam::Vec2;
-use image::codecs::png::{PngDecoder, PngEncoder};
-use image::{DynamicImage, ExtendedColorType, ImageEncoder};
-use matscan_scan::atomic::write_atomic_with;
-use matscan_scan::image_io::{linear_to_srgb, srgb_to_linear};
+use matscan_scan::image_io::{
+    read_mask_png, read_rgb_png, read_scalar_png, write_mask_png, write_rgb_png16,
+    write_scalar_png16,
+};
+use matscan_scan::manifest::Encoding;
 use matscan_scan::raster::{MaskRaster, RgbRaster, ScalarRaster};
 use matscan_scan::{Param, ScanError};
+use std::borrow::Cow;
 use std::collections::BTreeMap;
-use std::io::BufReader;
 use std::path::{Path, PathBuf};
 
 /// The folder of the textures inside an estimate folder.
@@ -162,44 +165,15 @@ impl BakedTextures {
 /// parameters not in the set are left alone.
 pub fn write_textures(texture_dir: &Path, textures: &BakedTextures) -> Result<(), BakeError> {
     std::fs::create_dir_all(texture_dir).map_err(|e| BakeError::io(texture_dir, e))?;
-    let (w, h) = (textures.width(), textures.height());
     if let Some(rgb) = textures.basecolor() {
-        let bytes: Vec<u8> = rgb
-            .data
-            .iter()
-            .flatten()
-            .flat_map(|&v| to_u16(linear_to_srgb(clip(v))).to_ne_bytes())
-            .collect();
         let path = texture_path(texture_dir, Param::Basecolor);
-        write_png(&path, w, h, &bytes, ExtendedColorType::Rgb16)?;
+        write_rgb_png16(&path, &finite_rgb(rgb), Encoding::Srgb)?;
     }
     for (&param, map) in &textures.scalars {
-        let bytes: Vec<u8> = map
-            .data
-            .iter()
-            .flat_map(|&v| to_u16(clip(v)).to_ne_bytes())
-            .collect();
-        write_png(
-            &texture_path(texture_dir, param),
-            w,
-            h,
-            &bytes,
-            ExtendedColorType::L16,
-        )?;
+        write_scalar_png16(&texture_path(texture_dir, param), &finite_scalar(map))?;
     }
-    let coverage: Vec<u8> = textures
-        .coverage
-        .data
-        .iter()
-        .map(|&m| if m { 255 } else { 0 })
-        .collect();
-    write_png(
-        &texture_dir.join(COVERAGE_FILE),
-        w,
-        h,
-        &coverage,
-        ExtendedColorType::L8,
-    )
+    write_mask_png(&texture_dir.join(COVERAGE_FILE), &textures.coverage)?;
+    Ok(())
 }
 
 /// Reads the texture set in `texture_dir`: the coverage map (required) and
@@ -215,47 +189,16 @@ pub fn read_textures(texture_dir: &Path) -> Result<BakedTextures, BakeError> {
         }
         .into());
     }
-    let cov = read_png(&coverage_path)?.into_luma8();
-    let (w, h) = cov.dimensions();
-    let coverage = MaskRaster {
-        width: w,
-        height: h,
-        data: cov.pixels().map(|p| p.0[0] >= 128).collect(),
-    };
-    let mut textures = BakedTextures::new(coverage);
+    let mut textures = BakedTextures::new(read_mask_png(&coverage_path)?);
     for param in Param::ALL {
         let path = texture_path(texture_dir, param);
         if !path.is_file() {
             continue;
         }
-        let image = read_png(&path)?;
         let result = if param == Param::Basecolor {
-            let rgb = image.into_rgb16();
-            let (tw, th) = rgb.dimensions();
-            let lut: Vec<f32> = (0..=u16::MAX)
-                .map(|v| srgb_to_linear(f32::from(v) / 65535.0))
-                .collect();
-            let data = rgb
-                .pixels()
-                .map(|p| p.0.map(|v| lut[usize::from(v)]))
-                .collect();
-            textures.set_basecolor(RgbRaster {
-                width: tw,
-                height: th,
-                data,
-            })
+            textures.set_basecolor(read_rgb_png(&path, Encoding::Srgb)?)
         } else {
-            let grey = image.into_luma16();
-            let (tw, th) = grey.dimensions();
-            let data = grey.pixels().map(|p| f32::from(p.0[0]) / 65535.0).collect();
-            textures.set_scalar(
-                param,
-                ScalarRaster {
-                    width: tw,
-                    height: th,
-                    data,
-                },
-            )
+            textures.set_scalar(param, read_scalar_png(&path)?)
         };
         result.map_err(|e| BakeError::format(&path, e.to_string()))?;
     }
@@ -263,7 +206,7 @@ pub fn read_textures(texture_dir: &Path) -> Result<BakedTextures, BakeError> {
 }
 
 /// A raster's fields are public, so its data may not fill its size; the
-/// PNG encoder would panic on such a buffer.
+/// glTF export indexes every texture by the set's size.
 fn check_len<T>(
     param: Param,
     len: usize,
@@ -281,39 +224,31 @@ fn check_len<T>(
     Ok(())
 }
 
-fn clip(v: f32) -> f32 {
+/// The scan crate's writers refuse NaN and infinity (and clip the rest to
+/// `[0, 1]`); a texture file is always written, so they are clipped here:
+/// NaN to 0, infinities to the nearer end. Borrowed when all is finite.
+fn finite_rgb(r: &RgbRaster) -> Cow<'_, RgbRaster> {
+    if r.data.iter().flatten().all(|v| v.is_finite()) {
+        Cow::Borrowed(r)
+    } else {
+        Cow::Owned(r.map(|p| p.map(clip)))
+    }
+}
+
+/// [`finite_rgb`] for one channel.
+fn finite_scalar(r: &ScalarRaster) -> Cow<'_, ScalarRaster> {
+    if r.data.iter().all(|v| v.is_finite()) {
+        Cow::Borrowed(r)
+    } else {
+        Cow::Owned(r.map(|&v| clip(v)))
+    }
+}
+
+/// A value as written: NaN as 0, clipped to `[0, 1]`.
+pub(crate) fn clip(v: f32) -> f32 {
     if v.is_nan() {
         0.0
     } else {
         v.clamp(0.0, 1.0)
     }
-}
-
-fn to_u16(v: f32) -> u16 {
-    (v * 65535.0).round() as u16
-}
-
-fn read_png(path: &Path) -> Result<DynamicImage, BakeError> {
-    let file = std::fs::File::open(path).map_err(|e| BakeError::io(path, e))?;
-    let bad = |e: image::ImageError| BakeError::format(path, format!("not a readable PNG: {e}"));
-    let decoder = PngDecoder::new(BufReader::new(file)).map_err(bad)?;
-    DynamicImage::from_decoder(decoder).map_err(bad)
-}
-
-fn write_png(
-    path: &Path,
-    width: u32,
-    height: u32,
-    bytes: &[u8],
-    color: ExtendedColorType,
-) -> Result<(), BakeError> {
-    write_atomic_with(path, |w| {
-        PngEncoder::new(w)
-            .write_image(bytes, width, height, color)
-            .map_err(|e| ScanError::Format {
-                path: path.to_path_buf(),
-                message: format!("could not encode PNG: {e}"),
-            })
-    })
-    .map_err(BakeError::from)
 }

@@ -1,5 +1,5 @@
 //! Image files of a bundle: OpenEXR photos and truth maps, 16-bit PNG
-//! photos, 8-bit PNG masks and 8-bit sRGB previews.
+//! photos and grey maps, 8-bit PNG masks and 8-bit sRGB previews.
 //!
 //! Reading is lenient about layout and strict about content: an EXR may hold
 //! RGB, RGBA, luminance `Y` or a single channel, in half, float or uint; a
@@ -176,6 +176,33 @@ pub fn write_rgb_png16(
         image.height,
         &bytes,
         ExtendedColorType::Rgb16,
+    )
+}
+
+/// Reads a grey PNG (8 or 16 bits; colour is converted to luma, alpha
+/// ignored) as linear values in `[0, 1]`.
+pub fn read_scalar_png(path: &Path) -> Result<ScalarRaster, ScanError> {
+    let grey = read_png(path)?.into_luma16();
+    let (w, h) = grey.dimensions();
+    let data = grey.pixels().map(|p| f32::from(p.0[0]) / 65535.0).collect();
+    raster(path, w as usize, h as usize, data)
+}
+
+/// Writes a scalar map as a 16-bit linear grey PNG; values are clipped to
+/// `[0, 1]`.
+pub fn write_scalar_png16(path: &Path, image: &ScalarRaster) -> Result<(), ScanError> {
+    check_writable(path, image, Precision::Float, image.data.iter())?;
+    let bytes: Vec<u8> = image
+        .data
+        .iter()
+        .flat_map(|&v| ((v.clamp(0.0, 1.0) * 65535.0).round() as u16).to_ne_bytes())
+        .collect();
+    write_png(
+        path,
+        image.width,
+        image.height,
+        &bytes,
+        ExtendedColorType::L16,
     )
 }
 
