@@ -15,6 +15,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args().skip(1);
     let size: u32 = args.next().map_or(Ok(2048), |s| s.parse())?;
     let runs: usize = args.next().map_or(Ok(5), |s| s.parse())?;
+    if runs == 0 {
+        return Err("RUNS must be at least 1".into());
+    }
     let scene = generate(&SceneOptions {
         seed: 1,
         kind: SceneKind::Multimat,

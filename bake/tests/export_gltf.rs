@@ -4,16 +4,15 @@
 //! self-contained, and the Khronos validator finds no error (when node and
 //! npm can install it; otherwise the test says it skipped).
 
+mod support;
+
 use matscan_bake::gltf_export::{DIFFUSE_TRANSMISSION_EXT, TRANSMISSION_EXT};
 use matscan_bake::{bake_scan, export_gltf, BakeError, BakeOptions, GltfFormat};
-use matscan_scan::bundle::TruthMap;
-use matscan_scan::image_io::{write_rgb_exr, write_scalar_exr, Precision};
-use matscan_scan::{Bundle, Param};
-use matscan_sim::render::{write_scan_bundle, SimOptions};
-use matscan_sim::scene::{generate, GeometryKind, GeometrySource, SceneKind, SceneOptions};
+use matscan_scan::Bundle;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::OnceLock;
+use support::{bake_small_scan, copy_truth_as_estimate, node_modules};
 
 struct Fixture {
     _dir: tempfile::TempDir,
@@ -27,34 +26,10 @@ struct Fixture {
 fn fixture() -> &'static Fixture {
     static F: OnceLock<Fixture> = OnceLock::new();
     F.get_or_init(|| {
-        let scene = generate(&SceneOptions {
-            seed: 11,
-            kind: SceneKind::TwoMatTransmission,
-            geometry: GeometrySource::Kind(GeometryKind::Torus),
-            width: 32,
-            height: 32,
-            positions: 2,
-            map_size: 16,
-        });
         let dir = tempfile::tempdir().unwrap();
         let scan = dir.path().join("scan");
-        let options = SimOptions {
-            samples: 1,
-            threads: Some(2),
-            ..SimOptions::default()
-        };
-        let bundle = write_scan_bundle(&scene, &options, &scan).unwrap();
+        let (bundle, textures) = bake_small_scan(&scan);
         let estimate = scan.join("estimate");
-        copy_truth_as_estimate(&bundle, &estimate);
-        let textures = bake_scan(
-            &scan,
-            &estimate,
-            &BakeOptions {
-                size: 64,
-                ..BakeOptions::default()
-            },
-        )
-        .unwrap();
         let mesh = bundle.read_mesh().unwrap();
         let gltf = export_gltf(&mesh, &textures, &estimate, GltfFormat::Separate, 1.0).unwrap();
         let glb = export_gltf(&mesh, &textures, &estimate, GltfFormat::Binary, 1.0).unwrap();
@@ -65,27 +40,6 @@ fn fixture() -> &'static Fixture {
             glb,
         }
     })
-}
-
-fn copy_truth_as_estimate(bundle: &Bundle, estimate: &Path) {
-    for p in &bundle.manifest.positions {
-        let dir = estimate.join(&p.name);
-        std::fs::create_dir_all(&dir).unwrap();
-        for param in Param::ALL {
-            let image = bundle
-                .read_truth(&p.name, &TruthMap::Param(param))
-                .unwrap()
-                .unwrap();
-            let path = dir.join(format!("{param}.exr"));
-            match param {
-                Param::Basecolor => {
-                    write_rgb_exr(&path, &image.into_rgb().unwrap(), Precision::Float)
-                }
-                _ => write_scalar_exr(&path, &image.into_scalar().unwrap(), Precision::Float),
-            }
-            .unwrap();
-        }
-    }
 }
 
 #[test]
@@ -194,47 +148,10 @@ fn baking_without_an_estimate_tells_to_run_matscan_estimate() {
     assert!(err.to_string().contains("matscan estimate"), "{err}");
 }
 
-fn target_dir() -> PathBuf {
-    std::env::var_os("CARGO_TARGET_DIR")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../target"))
-}
-
-/// `node_modules` with the validator, installed on first use; `Err` says
-/// why the check has to be skipped.
-fn validator_modules() -> Result<PathBuf, String> {
-    let dir = target_dir().join("gltf-validator");
-    let modules = dir.join("node_modules");
-    if modules.join("gltf-validator/package.json").is_file() {
-        return Ok(modules);
-    }
-    Command::new("node")
-        .arg("--version")
-        .output()
-        .map_err(|e| format!("no node ({e})"))?;
-    std::fs::create_dir_all(&dir).map_err(|e| e.to_string())?;
-    let out = Command::new("npm")
-        .args(["install", "--no-audit", "--no-fund", "--prefix"])
-        .arg(&dir)
-        .arg("gltf-validator")
-        .output()
-        .map_err(|e| format!("no npm ({e})"))?;
-    if !out.status.success() || !modules.join("gltf-validator/package.json").is_file() {
-        return Err(format!(
-            "npm install gltf-validator failed (offline?): {}",
-            String::from_utf8_lossy(&out.stderr)
-                .lines()
-                .last()
-                .unwrap_or("")
-        ));
-    }
-    Ok(modules)
-}
-
 #[test]
 fn khronos_validator_finds_no_errors_in_either_format() {
     let f = fixture();
-    let modules = match validator_modules() {
+    let modules = match node_modules("gltf-validator", &["gltf-validator"]) {
         Ok(m) => m,
         Err(why) => {
             println!("skipped: Khronos glTF validator not available: {why}");

@@ -6,115 +6,35 @@
 //! itself) are installed into the target dir on first use; without node,
 //! npm or a browser that starts, the test says it skipped.
 
-use matscan_bake::{bake_scan, export_gltf, BakeOptions, GltfFormat};
-use matscan_scan::bundle::TruthMap;
-use matscan_scan::image_io::{write_rgb_exr, write_scalar_exr, Precision};
-use matscan_scan::Param;
-use matscan_sim::render::{write_scan_bundle, SimOptions};
-use matscan_sim::scene::{generate, GeometryKind, GeometrySource, SceneKind, SceneOptions};
+mod support;
+
+use matscan_bake::{export_gltf, GltfFormat};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
+use support::{bake_small_scan, node_modules, target_dir};
 
 const PACKAGES: [&str; 3] = ["puppeteer-core", "three", "@sparticuz/chromium"];
 
 /// A 32x32 two-position scan of a torus, its truth copied as the estimate,
 /// baked at 64x64 and exported as .gltf with separate .bin and PNGs.
 fn export_small_gltf(dir: &Path) -> PathBuf {
-    let scene = generate(&SceneOptions {
-        seed: 11,
-        kind: SceneKind::TwoMatTransmission,
-        geometry: GeometrySource::Kind(GeometryKind::Torus),
-        width: 32,
-        height: 32,
-        positions: 2,
-        map_size: 16,
-    });
     let scan = dir.join("scan");
-    let options = SimOptions {
-        samples: 1,
-        threads: Some(2),
-        ..SimOptions::default()
-    };
-    let bundle = write_scan_bundle(&scene, &options, &scan).unwrap();
-    let estimate = scan.join("estimate");
-    for p in &bundle.manifest.positions {
-        let dir = estimate.join(&p.name);
-        std::fs::create_dir_all(&dir).unwrap();
-        for param in Param::ALL {
-            let image = bundle
-                .read_truth(&p.name, &TruthMap::Param(param))
-                .unwrap()
-                .unwrap();
-            let path = dir.join(format!("{param}.exr"));
-            match param {
-                Param::Basecolor => {
-                    write_rgb_exr(&path, &image.into_rgb().unwrap(), Precision::Float)
-                }
-                _ => write_scalar_exr(&path, &image.into_scalar().unwrap(), Precision::Float),
-            }
-            .unwrap();
-        }
-    }
-    let textures = bake_scan(
-        &scan,
-        &estimate,
-        &BakeOptions {
-            size: 64,
-            ..BakeOptions::default()
-        },
-    )
-    .unwrap();
+    let (bundle, textures) = bake_small_scan(&scan);
     let mesh = bundle.read_mesh().unwrap();
-    export_gltf(&mesh, &textures, &estimate, GltfFormat::Separate, 1.0).unwrap()
-}
-
-fn target_dir() -> PathBuf {
-    std::env::var_os("CARGO_TARGET_DIR")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../target"))
-}
-
-/// `node_modules` with the viewer's packages, installed on first use;
-/// `Err` says why the check has to be skipped.
-fn viewer_modules() -> Result<PathBuf, String> {
-    let dir = target_dir().join("gltf-viewer");
-    let modules = dir.join("node_modules");
-    let installed = || {
-        PACKAGES
-            .iter()
-            .all(|p| modules.join(p).join("package.json").is_file())
-    };
-    if installed() {
-        return Ok(modules);
-    }
-    Command::new("node")
-        .arg("--version")
-        .output()
-        .map_err(|e| format!("no node ({e})"))?;
-    std::fs::create_dir_all(&dir).unwrap();
-    let out = Command::new("npm")
-        .args(["install", "--no-audit", "--no-fund", "--prefix"])
-        .arg(&dir)
-        .args(PACKAGES)
-        .output()
-        .map_err(|e| format!("no npm ({e})"))?;
-    if !out.status.success() || !installed() {
-        return Err(format!(
-            "npm install {} failed (offline?): {}",
-            PACKAGES.join(" "),
-            String::from_utf8_lossy(&out.stderr)
-                .lines()
-                .last()
-                .unwrap_or("")
-        ));
-    }
-    Ok(modules)
+    export_gltf(
+        &mesh,
+        &textures,
+        &scan.join("estimate"),
+        GltfFormat::Separate,
+        1.0,
+    )
+    .unwrap()
 }
 
 #[test]
 fn exported_gltf_renders_textured_in_headless_chromium_with_three_js() {
-    let modules = match viewer_modules() {
+    let modules = match node_modules("gltf-viewer", &PACKAGES) {
         Ok(m) => m,
         Err(why) => {
             eprintln!("skipped: headless glTF viewer not available: {why}");
