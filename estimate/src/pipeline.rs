@@ -203,28 +203,22 @@ pub fn estimate(
     let models = models.resolve(&kinds, device)?;
     timings.weights_s = t.elapsed().as_secs_f64();
 
-    let (mut values, mut runs) = run_networks(&plan, &models, &inputs, device)?;
-    timings.load_s += values.given_s;
     let mut tally = RefineTally::default();
-    let confidence = refine_values(
-        &mut values,
-        &plan,
-        &bundle,
-        &calibration,
-        &inputs,
-        &options.refine,
-        &mut tally,
-    )?;
-    let maps = written_maps(&plan, &values, &inputs);
+    let pass = Pass {
+        plan: &plan,
+        models: &models,
+        bundle: &bundle,
+        calibration: &calibration,
+        refine: &options.refine,
+        device,
+    };
+    let (first, mut runs, given_s) = pass.run(&inputs, &mut tally)?;
+    timings.load_s += given_s;
     let t = Instant::now();
-    let metrics = metrics(&bundle, &set.reference, &maps, &inputs)?;
+    let metrics = metrics(&bundle, &set.reference, &first.maps, &inputs)?;
     timings.metrics_s = t.elapsed().as_secs_f64();
     let mut warnings = inputs.warnings.clone();
-    let mut positions = vec![PositionMaps {
-        position: set.reference.clone(),
-        maps,
-        extra: confidence,
-    }];
+    let mut positions = vec![first];
     if options.references == References::Every {
         let given_map = options
             .given
@@ -250,25 +244,12 @@ pub fn estimate(
                     warnings.push(w.clone());
                 }
             }
-            let (mut values, more) = run_networks(&plan, &models, &inputs, device)?;
-            timings.load_s += values.given_s;
-            let confidence = refine_values(
-                &mut values,
-                &plan,
-                &bundle,
-                &calibration,
-                &inputs,
-                &options.refine,
-                &mut tally,
-            )?;
+            let (maps, more, given_s) = pass.run(&inputs, &mut tally)?;
+            timings.load_s += given_s;
             for (kind, (_, seconds)) in more {
                 runs.entry(kind).or_insert((0, 0.0)).1 += seconds;
             }
-            positions.push(PositionMaps {
-                position: name.clone(),
-                maps: written_maps(&plan, &values, &inputs),
-                extra: confidence,
-            });
+            positions.push(maps);
         }
     }
     timings.networks = runs
@@ -362,6 +343,43 @@ fn run_networks(
         }
     }
     Ok((values, runs))
+}
+
+/// What every reference position's maps are made with.
+struct Pass<'a> {
+    plan: &'a Plan,
+    models: &'a Models,
+    bundle: &'a Bundle,
+    calibration: &'a ScanCalibration,
+    refine: &'a RefineOptions,
+    device: &'a Device,
+}
+
+impl Pass<'_> {
+    /// The networks and the refinement in the image of `inputs.reference`:
+    /// its maps, the networks' runs and the seconds spent reading given maps.
+    fn run(
+        &self,
+        inputs: &SceneInputs,
+        tally: &mut RefineTally,
+    ) -> Result<(PositionMaps, NetRuns, f64), EstimateError> {
+        let (mut values, runs) = run_networks(self.plan, self.models, inputs, self.device)?;
+        let extra = refine_values(
+            &mut values,
+            self.plan,
+            self.bundle,
+            self.calibration,
+            inputs,
+            self.refine,
+            tally,
+        )?;
+        let maps = PositionMaps {
+            position: inputs.reference.clone(),
+            maps: written_maps(self.plan, &values, inputs),
+            extra,
+        };
+        Ok((maps, runs, values.given_s))
+    }
 }
 
 /// What the refinements of all positions did, together.
