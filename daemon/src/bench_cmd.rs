@@ -31,20 +31,15 @@
 //! `chart`; changes no scan outside `--data`.
 
 use crate::chart::{self, Chart, Panel, Point, Series};
-use crate::eval_cmd::{evaluate_scene, view_filter, views_label};
+use crate::eval_cmd::{all_views, evaluate_scene, view_filter, views_label};
 use crate::eval_tables::{csv_field, csv_number, median, GroupBy, Means};
 use anyhow::{bail, Context, Result};
 use burn::tensor::Device;
 use clap::Args;
-use matscan_calib::{calibrate_bundle, CalibOptions};
 use matscan_estimate::backend::CpuBackend;
 use matscan_estimate::refine::RefineOptions;
-use matscan_estimate::views::select_views;
 use matscan_estimate::weights::EMBEDDED;
-use matscan_estimate::{
-    EstimateOptions, ModelSource, Models, NetConfig, ParamKind, ParamNet, ViewFilter,
-};
-use matscan_scan::Bundle;
+use matscan_estimate::{EstimateOptions, ModelSource, Models, NetConfig, ParamKind, ParamNet};
 use matscan_sim::render::SimOptions;
 use matscan_sim::scene::{GeometrySource, SceneKind, SceneOptions};
 use serde::{Deserialize, Serialize};
@@ -450,15 +445,6 @@ fn scaled_models(percent: u32, device: &Device) -> Result<Models> {
     Ok(models)
 }
 
-/// The usable views of `scan`, reference position first.
-fn usable_views(scan: &Path) -> Option<Vec<String>> {
-    let bundle = Bundle::open(scan).ok()?;
-    let calibration = calibrate_bundle(&bundle, &CalibOptions::default()).ok()?;
-    select_views(&bundle.manifest, &calibration, &ViewFilter::default())
-        .ok()
-        .map(|set| set.views.iter().map(|v| v.to_string()).collect())
-}
-
 /// Runs one configuration over `scans`.
 fn run_config(
     config: &Config,
@@ -485,7 +471,9 @@ fn run_config(
         let all = if config.views > 0 {
             views_cache
                 .entry(scan.clone())
-                .or_insert_with(|| usable_views(scan))
+                // A scan that cannot be calibrated here lets the estimate
+                // fail and report it.
+                .or_insert_with(|| all_views(scan).ok().flatten())
                 .clone()
         } else {
             None

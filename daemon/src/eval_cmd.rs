@@ -129,48 +129,45 @@ pub fn scans_in(dir: &Path) -> Result<Vec<PathBuf>> {
     Ok(scans)
 }
 
-/// One parameter's truth at one position: values (pixel-major, `channels`
-/// per pixel) and the object mask.
-struct Truth {
-    values: Vec<f32>,
-    mask: Vec<bool>,
-    channels: usize,
+/// The object mask of `position`'s truth; `None` without one.
+fn truth_mask(bundle: &Bundle, position: &str) -> Result<Option<Vec<bool>>> {
+    Ok(match bundle.read_truth(position, &TruthMap::Mask)? {
+        Some(m) => m.into_mask().map(|m| m.data),
+        None => None,
+    })
 }
 
-fn truth_of(bundle: &Bundle, position: &str, kind: ParamKind) -> Result<Option<Truth>> {
+/// One parameter's truth at one position: values (pixel-major) and
+/// channels per pixel; `None` without a truth map for it.
+fn truth_values(
+    bundle: &Bundle,
+    position: &str,
+    kind: ParamKind,
+) -> Result<Option<(Vec<f32>, usize)>> {
     let Ok(param) = kind.name().parse::<Param>() else {
         return Ok(None);
     };
-    let mask = match bundle.read_truth(position, &TruthMap::Mask)? {
-        Some(m) => m.into_mask().map(|m| m.data),
-        None => None,
-    };
-    let Some(mask) = mask else { return Ok(None) };
-    let (values, channels) = match bundle.read_truth(position, &TruthMap::Param(param))? {
-        Some(TruthImage::Rgb(r)) => (r.data.as_flattened().to_vec(), 3),
-        Some(TruthImage::Scalar(r)) => (r.data, 1),
-        _ => return Ok(None),
-    };
-    Ok(Some(Truth {
-        values,
-        mask,
-        channels,
-    }))
+    Ok(
+        match bundle.read_truth(position, &TruthMap::Param(param))? {
+            Some(TruthImage::Rgb(r)) => Some((r.data.as_flattened().to_vec(), 3)),
+            Some(TruthImage::Scalar(r)) => Some((r.data, 1)),
+            _ => None,
+        },
+    )
 }
 
-/// Mean masked truth value per parameter over every position of `scans`.
+/// Mean masked truth value per parameter over every position of `scans`
+/// (each position's mask read once for all parameters).
 fn mean_truth(scans: &[PathBuf]) -> Result<BTreeMap<ParamKind, f64>> {
     let mut sums: BTreeMap<ParamKind, (f64, usize)> = BTreeMap::new();
     for scan in scans {
         let bundle = Bundle::open(scan)?;
         for position in &bundle.manifest.positions {
+            let Some(mask) = truth_mask(&bundle, &position.name)? else {
+                continue;
+            };
             for kind in ParamKind::ALL {
-                let Some(Truth {
-                    values,
-                    mask,
-                    channels,
-                }) = truth_of(&bundle, &position.name, kind)?
-                else {
+                let Some((values, channels)) = truth_values(&bundle, &position.name, kind)? else {
                     continue;
                 };
                 let entry = sums.entry(kind).or_default();
@@ -193,8 +190,8 @@ fn mean_truth(scans: &[PathBuf]) -> Result<BTreeMap<ParamKind, f64>> {
 }
 
 /// The usable views of `scan` (`position/capture`), reference position
-/// first; `None` when none is usable.
-fn all_views(scan: &Path) -> Result<Option<Vec<String>>> {
+/// first; `None` when none is usable. `matscan bench` uses it too.
+pub fn all_views(scan: &Path) -> Result<Option<Vec<String>>> {
     let bundle = Bundle::open(scan)?;
     let calibration = calibrate_bundle(&bundle, &CalibOptions::default())
         .with_context(|| format!("calibrating {}", scan.display()))?;
@@ -245,13 +242,13 @@ pub fn evaluate_scene(
         device,
         group_by,
         baseline,
-        &mut |_, _| {},
+        &mut |_, _, _| {},
     )
 }
 
-/// [`evaluate_scene`], handing the estimate's folder and reference
-/// position to `inspect` before the folder is removed (`--textures`
-/// scores the estimate there).
+/// [`evaluate_scene`], handing the opened scan, the estimate's folder and
+/// the reference position to `inspect` before the folder is removed
+/// (`--textures` scores the estimate there).
 pub fn evaluate_scene_with(
     scan: &Path,
     models: ModelSource,
@@ -259,13 +256,14 @@ pub fn evaluate_scene_with(
     device: &Device,
     group_by: GroupBy,
     baseline: Option<&BTreeMap<ParamKind, f64>>,
-    inspect: &mut dyn FnMut(&Path, &str),
+    inspect: &mut dyn FnMut(&Bundle, &Path, &str),
 ) -> Result<SceneResult> {
+    let bundle = Bundle::open(scan)?;
     let report = estimate(scan, models, options, device)
         .with_context(|| format!("estimating {}", scan.display()))?;
-    inspect(&report.out, &report.result.reference_position);
+    let reference = report.result.reference_position.as_str();
+    inspect(&bundle, &report.out, reference);
     let _ = std::fs::remove_dir_all(&report.out);
-    let bundle = Bundle::open(scan)?;
     let mut result = SceneResult {
         scan: scan.to_path_buf(),
         group: scene_group(&bundle.manifest.name, group_by),
@@ -273,19 +271,26 @@ pub fn evaluate_scene_with(
         metrics: BTreeMap::new(),
         baseline: BTreeMap::new(),
     };
+    // The truth mask is read once, and only when a baseline is compared.
+    let mask = match baseline {
+        Some(_) => truth_mask(&bundle, reference)?,
+        None => None,
+    };
     for kind in ParamKind::ALL {
         let Some(m) = report.result.metrics.get(kind.name()) else {
             continue;
         };
         result.metrics.insert(kind, *m);
-        if let (Some(mean), Some(t)) = (
-            baseline.and_then(|b| b.get(&kind)),
-            truth_of(&bundle, &report.result.reference_position, kind)?,
-        ) {
-            let constant = vec![*mean as f32; t.values.len()];
-            if let Some(b) = error_metrics(&constant, &t.values, &t.mask, t.channels) {
-                result.baseline.insert(kind, b);
-            }
+        let (Some(mean), Some(mask)) = (baseline.and_then(|b| b.get(&kind)), mask.as_deref())
+        else {
+            continue;
+        };
+        let Some((values, channels)) = truth_values(&bundle, reference, kind)? else {
+            continue;
+        };
+        let constant = vec![*mean as f32; values.len()];
+        if let Some(b) = error_metrics(&constant, &values, mask, channels) {
+            result.baseline.insert(kind, b);
         }
     }
     Ok(result)
@@ -361,9 +366,9 @@ pub fn run(args: &EvalArgs) -> Result<()> {
                 &device,
                 args.group_by,
                 Some(&baseline),
-                &mut |out, reference| {
+                &mut |bundle, out, reference| {
                     if let Some(size) = args.textures.textures {
-                        textures.add_scan(scan, out, reference, size);
+                        textures.add_scan(bundle, out, reference, size);
                     }
                 },
             ) {

@@ -108,25 +108,25 @@ fn shots(framing: &Framing) -> Vec<Shot> {
     shots
 }
 
-/// Scores the estimate in `estimate_dir` of the simulated scan `scan`
+/// Scores the estimate in `estimate_dir` of the simulated scan `bundle`
 /// (reference position `reference`) with textures of `size` texels.
 pub fn score_scan(
-    scan: &Path,
+    bundle: &Bundle,
     estimate_dir: &Path,
     reference: &str,
     size: u32,
 ) -> Result<TextureScore> {
-    let bundle = Bundle::open(scan)?;
+    let scan = bundle.root.as_path();
     let options = BakeOptions {
         size,
         ..BakeOptions::default()
     };
     let estimated = bake_scan(scan, estimate_dir, &options)
         .with_context(|| format!("baking the estimate of {}", scan.display()))?;
-    let truth = true_textures(&bundle, &estimated)?
+    let truth = true_textures(bundle, &estimated)?
         .with_context(|| format!("{}: no truth maps to compare with", scan.display()))?;
     let params = texture_errors(&estimated, &truth);
-    let object = ScanObject::new(&bundle, reference)
+    let object = ScanObject::new(bundle, reference)
         .with_context(|| format!("framing {}", scan.display()))?;
     let shots = shots(&object.framing);
     let settings = RenderSettings::new(IMAGE_WIDTH, SAMPLES);
@@ -202,8 +202,8 @@ pub struct TextureTable {
 impl TextureTable {
     /// Scores the estimate in `estimate_dir` and adds it; a scan that
     /// cannot be scored is counted and named instead of stopping the run.
-    pub fn add_scan(&mut self, scan: &Path, estimate_dir: &Path, reference: &str, size: u32) {
-        match score_scan(scan, estimate_dir, reference, size) {
+    pub fn add_scan(&mut self, bundle: &Bundle, estimate_dir: &Path, reference: &str, size: u32) {
+        match score_scan(bundle, estimate_dir, reference, size) {
             Ok(score) => self.add(&score),
             Err(e) => self.failures.push(format!("{e:#}")),
         }
