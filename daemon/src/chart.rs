@@ -3,8 +3,8 @@
 //! per series with a labelled marker per point, tick labels, axis titles
 //! and a legend. Used by `matscan bench` (error against run time).
 //!
-//! Drawing reuses the trainer's line primitive
-//! (`matscan_estimate::train::plot::line`) and this binary's bitmap font
+//! Drawing reuses the trainer's pixel and line primitives
+//! (`matscan_estimate::train::plot::{put, line}`) and this binary's bitmap font
 //! (`font`), so no plotting crate is linked; the `image` crate encodes.
 //!
 //! Boundaries: geometry and pixels only; what the numbers mean is the
@@ -13,7 +13,7 @@
 use crate::font;
 use anyhow::{Context, Result};
 use image::{ImageFormat, Rgb, RgbImage};
-use matscan_estimate::train::plot::line;
+use matscan_estimate::train::plot::{line, put};
 use std::path::Path;
 
 /// One axis's value range and scale.
@@ -214,21 +214,15 @@ fn text(img: &mut RgbImage, x: i64, y: i64, scale: u32, colour: Rgb<u8>, s: &str
     if x < 0 || y < 0 {
         return;
     }
-    let (w, h) = (img.width(), img.height());
     font::for_each_pixel(x as u32, y as u32, scale, s, |px, py| {
-        if px < w && py < h {
-            img.put_pixel(px, py, colour);
-        }
+        put(img, (i64::from(px), i64::from(py)), colour);
     });
 }
 
 fn marker(img: &mut RgbImage, (x, y): (i64, i64), colour: Rgb<u8>) {
     for dy in -3..=3 {
         for dx in -3..=3 {
-            let (px, py) = (x + dx, y + dy);
-            if px >= 0 && py >= 0 && (px as u32) < img.width() && (py as u32) < img.height() {
-                img.put_pixel(px as u32, py as u32, colour);
-            }
+            put(img, (x + dx, y + dy), colour);
         }
     }
 }

@@ -111,6 +111,14 @@ const W: u32 = 800;
 const H: u32 = 450;
 const MARGIN: i64 = 20;
 
+/// Sets pixel (`x`, `y`) when it lies inside the image (the clipping every
+/// primitive here and in `matscan bench`'s chart shares).
+pub fn put(img: &mut RgbImage, (x, y): (i64, i64), colour: Rgb<u8>) {
+    if x >= 0 && y >= 0 && (x as u32) < img.width() && (y as u32) < img.height() {
+        img.put_pixel(x as u32, y as u32, colour);
+    }
+}
+
 /// Draws a one-pixel line from (`x0`, `y0`) to (`x1`, `y1`) (Bresenham),
 /// clipped to the image. Public so that other plots (`matscan bench`'s
 /// error against run time) draw with the same primitive.
@@ -119,9 +127,7 @@ pub fn line(img: &mut RgbImage, (x0, y0): (i64, i64), (x1, y1): (i64, i64), colo
     let (sx, sy) = (if x0 < x1 { 1 } else { -1 }, if y0 < y1 { 1 } else { -1 });
     let (mut x, mut y, mut err) = (x0, y0, dx + dy);
     loop {
-        if x >= 0 && y >= 0 && (x as u32) < img.width() && (y as u32) < img.height() {
-            img.put_pixel(x as u32, y as u32, colour);
-        }
+        put(img, (x, y), colour);
         if x == x1 && y == y1 {
             break;
         }
