@@ -23,10 +23,14 @@
 pub mod convert;
 pub mod error;
 pub mod footswitch;
+pub mod kms;
+#[cfg(feature = "hardware")]
+pub mod nokhwa_camera;
 pub mod serial;
 #[cfg(feature = "simulated-hardware")]
 pub mod sim_rig;
 pub mod traits;
+pub mod usb;
 #[cfg(feature = "hardware")]
 pub mod v4l2;
 

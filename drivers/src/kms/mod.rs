@@ -1,0 +1,1 @@
+//! The projector over DRM/KMS (placeholder: being written).

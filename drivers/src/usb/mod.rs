@@ -1,0 +1,1 @@
+//! USB devices through rusb (placeholder: being written).
