@@ -447,46 +447,44 @@ impl<T: HidTransport> LightCrafter<T> {
         }
         let deadline = Instant::now() + self.config.reply_timeout;
         let mut buf = [0u8; REPORT_LEN];
-        loop {
-            let (n, header) = loop {
-                let n = self.read_before(&mut buf, deadline, command)?;
-                let Some((header, _)) = parse_reply(&buf[..n]) else {
-                    return Err(self.malformed(
-                        &buf[..n],
-                        command,
-                        "a DLPC350 reply: flags, sequence, 16-bit length (at most 512), data",
-                    ));
-                };
-                if header.seq == seq {
-                    break (n, header);
-                }
-                tracing::warn!(
-                    "{}: skipping a reply with sequence {} while waiting for {} of {command}",
-                    self.name,
-                    header.seq,
-                    seq
-                );
+        let (n, header) = loop {
+            let n = self.read_before(&mut buf, deadline, command)?;
+            let Some((header, _)) = parse_reply(&buf[..n]) else {
+                return Err(self.malformed(
+                    &buf[..n],
+                    command,
+                    "a DLPC350 reply: flags, sequence, 16-bit length (at most 512), data",
+                ));
             };
-            if header.error {
-                return Err(DriverError::InvalidSetting {
-                    device: self.name.clone(),
-                    reason: format!(
-                        "the LightCrafter rejected {command} with payload [{}] (error flag in its \
-                         reply); the command or value is not valid in its current mode",
-                        hex(payload)
-                    ),
-                });
+            if header.seq == seq {
+                break (n, header);
             }
-            let mut data = buf[HEADER_LEN..n].to_vec();
-            data.truncate(header.length);
-            // Long replies go on in further reports of bare data.
-            while data.len() < header.length {
-                let m = self.read_before(&mut buf, deadline, command)?;
-                let want = header.length - data.len();
-                data.extend_from_slice(&buf[..m.min(want)]);
-            }
-            return Ok(data);
+            tracing::warn!(
+                "{}: skipping a reply with sequence {} while waiting for {} of {command}",
+                self.name,
+                header.seq,
+                seq
+            );
+        };
+        if header.error {
+            return Err(DriverError::InvalidSetting {
+                device: self.name.clone(),
+                reason: format!(
+                    "the LightCrafter rejected {command} with payload [{}] (error flag in its \
+                     reply); the command or value is not valid in its current mode",
+                    hex(payload)
+                ),
+            });
         }
+        let mut data = buf[HEADER_LEN..n].to_vec();
+        data.truncate(header.length);
+        // Long replies go on in further reports of bare data.
+        while data.len() < header.length {
+            let m = self.read_before(&mut buf, deadline, command)?;
+            let want = header.length - data.len();
+            data.extend_from_slice(&buf[..m.min(want)]);
+        }
+        Ok(data)
     }
 
     fn read_before(
