@@ -16,7 +16,7 @@
 
 use crate::error::DriverError;
 use crate::serial::{
-    memory_pair, Board, BoardConfig, BoardFaults, HostConfig, RunningBoard, SerialLights,
+    memory_pair, Board, BoardConfig, BoardFaults, HostConfig, Port, RunningBoard, SerialLights,
 };
 use crate::traits::{
     monotonic_now, Camera, CameraSettings, LightController, LightId, LightState, Positioner, Press,
@@ -108,6 +108,46 @@ pub struct SimulatedRig {
 impl SimulatedRig {
     /// Powers the rig up: the board boots and the lights connect to it.
     pub fn new(scene: Scene, config: SimConfig) -> Result<SimulatedRig, DriverError> {
+        let (host_end, board_end) = memory_pair(LIGHTS_ID, "sim:board");
+        let bench = SimBench::new(scene, config.clone(), Box::new(board_end))?;
+        let lights = SerialLights::connect(Box::new(host_end), config.host.clone())?;
+        Ok(SimulatedRig {
+            camera: bench.camera,
+            lights: SimLights {
+                host: lights,
+                board: bench.board,
+            },
+            projector: bench.projector,
+            positioner: bench.positioner,
+            trigger: bench.trigger,
+            footswitch: bench.footswitch,
+            disk: bench.disk,
+        })
+    }
+}
+
+/// The simulated rig without its light-controller host: the board serves
+/// whatever port it is given (a pseudo-terminal's master end, say) so that
+/// the real serial driver can open the other end by its path, as on the
+/// scanner PC, while the camera still renders what the board's outputs are.
+pub struct SimBench {
+    pub camera: SimCamera,
+    pub projector: SimProjector,
+    pub positioner: SimPositioner,
+    pub trigger: SimTrigger,
+    pub footswitch: FootswitchButton,
+    pub disk: SimDisk,
+    /// The simulated light controller serving `board_port`.
+    pub board: RunningBoard,
+}
+
+impl SimBench {
+    /// Boots the board on `board_port` and builds the other parts.
+    pub fn new(
+        scene: Scene,
+        config: SimConfig,
+        board_port: Box<dyn Port>,
+    ) -> Result<SimBench, DriverError> {
         let scene = Arc::new(scaled(scene, config.width, config.height));
         if scene.rig.positions.is_empty() {
             return Err(DriverError::NoSuchPosition {
@@ -120,28 +160,21 @@ impl SimulatedRig {
             pattern: ProjectorPattern::Black,
             position: 0,
         }));
-        let (host_end, board_end) = memory_pair(LIGHTS_ID, "sim:board");
         let board = RunningBoard::spawn(
-            Box::new(board_end),
+            board_port,
             Board::new(BoardConfig::default(), config.faults.board.clone()),
         );
-        let outputs = board.shared();
-        let lights = SerialLights::connect(Box::new(host_end), config.host.clone())?;
         let exposure = scene.rig.positions[0].exposure_s;
         let settings = CameraSettings::new(exposure, 1.0, 5000).unwrap_or_default();
         let (tx, rx) = channel();
-        Ok(SimulatedRig {
+        Ok(SimBench {
             camera: SimCamera {
                 scene: scene.clone(),
                 stage: stage.clone(),
-                board: outputs,
+                board: board.shared(),
                 config: config.clone(),
                 settings,
                 frames: 0,
-            },
-            lights: SimLights {
-                host: lights,
-                board,
             },
             projector: SimProjector {
                 scene: scene.clone(),
@@ -154,6 +187,7 @@ impl SimulatedRig {
                 capacity: config.faults.disk_capacity,
                 used: AtomicU64::new(0),
             },
+            board,
         })
     }
 }

@@ -29,7 +29,7 @@ use super::config::HardwareRigConfig;
 use super::sequencer::{PositionGeometry, Rig, RigGeometry};
 use matscan_drivers::footswitch::EvdevFootswitch;
 use matscan_drivers::serial::{open_lights, HostConfig};
-use matscan_drivers::{Camera, DriverError};
+use matscan_drivers::{Camera, DriverError, Projector, Trigger};
 use matscan_scan::{LightKind, Manifest, Mesh, ScanError};
 use std::num::NonZeroU32;
 use std::path::{Path, PathBuf};
@@ -125,19 +125,49 @@ fn read_mesh(path: &Path) -> Result<Mesh, HardwareError> {
     })
 }
 
+/// The devices of a hardware rig besides its light controller, which is
+/// always the serial board at `config.lights`.
+pub struct Devices {
+    pub camera: Box<dyn Camera>,
+    pub projector: Option<Box<dyn Projector>>,
+    pub trigger: Box<dyn Trigger>,
+}
+
 /// Opens every device of the hardware rig; the geometry first, since a
 /// wrong file is the likeliest mistake and needs no device.
 pub fn open(config: &HardwareRigConfig) -> Result<Rig, HardwareError> {
     let geometry = load_geometry(config)?;
     let camera = open_camera(config)?;
-    let lights = open_lights(&config.lights, config.baud, HostConfig::default())?;
     let footswitch = EvdevFootswitch::open(&config.footswitch, config.footswitch_keys.clone())?;
-    Ok(Rig {
+    let devices = Devices {
         camera,
-        lights: Box::new(lights),
         projector: None,
+        trigger: Box::new(footswitch),
+    };
+    assemble(config, geometry, devices)
+}
+
+/// The hardware rig with `devices` standing in for the configured camera,
+/// projector and footswitch; the geometry files and the light controller's
+/// serial port are the configured ones. The end-to-end test drives the
+/// real serial driver this way against a board on a pseudo-terminal.
+pub fn open_with(config: &HardwareRigConfig, devices: Devices) -> Result<Rig, HardwareError> {
+    let geometry = load_geometry(config)?;
+    assemble(config, geometry, devices)
+}
+
+fn assemble(
+    config: &HardwareRigConfig,
+    geometry: RigGeometry,
+    devices: Devices,
+) -> Result<Rig, HardwareError> {
+    let lights = open_lights(&config.lights, config.baud, HostConfig::default())?;
+    Ok(Rig {
+        camera: devices.camera,
+        lights: Box::new(lights),
+        projector: devices.projector,
         positioner: None,
-        trigger: Some(Box::new(footswitch)),
+        trigger: Some(devices.trigger),
         disk: None,
         geometry,
         truth: None,
@@ -167,10 +197,9 @@ mod tests {
     use super::*;
     use matscan_sim::scene::{generate, GeometryKind, GeometrySource, SceneKind, SceneOptions};
 
-    /// A rig calibration file and a mesh written from a simulated scene,
-    /// as a scanner PC would keep them.
-    fn rig_files(dir: &Path) -> HardwareRigConfig {
-        let scene = generate(&SceneOptions {
+    /// The simulated scene the rig files of these tests describe.
+    fn rig_scene() -> matscan_sim::scene::Scene {
+        generate(&SceneOptions {
             seed: 3,
             kind: SceneKind::TwoMat,
             geometry: GeometrySource::Kind(GeometryKind::Sphere),
@@ -178,7 +207,13 @@ mod tests {
             height: 32,
             positions: 2,
             map_size: 8,
-        });
+        })
+    }
+
+    /// A rig calibration file and a mesh written from a simulated scene,
+    /// as a scanner PC would keep them.
+    fn rig_files(dir: &Path) -> HardwareRigConfig {
+        let scene = rig_scene();
         let geometry = super::super::rig::geometry_of(&scene, 32);
         let manifest = Manifest {
             units: "m".into(),
@@ -385,5 +420,109 @@ mod tests {
         fn state(&self, _: matscan_drivers::LightId) -> matscan_drivers::LightState {
             matscan_drivers::LightState::Off
         }
+    }
+
+    /// The hardware rig as the daemon opens it, with the serial light
+    /// controller on a real tty: the simulated board serves a
+    /// pseudo-terminal's master end, the real `serialport` driver opens the
+    /// slave by its /dev/pts path, and the simulated camera renders what
+    /// the board's outputs and the projector really do.
+    #[test]
+    fn the_hardware_rig_captures_a_full_bundle_through_the_serial_board_on_a_tty() {
+        use crate::service::config::Profile;
+        use crate::service::plan::plan;
+        use crate::service::sequencer::RunSettings;
+        use matscan_drivers::serial::pty_pair;
+        use matscan_drivers::sim_rig::{SimBench, SimConfig};
+        use matscan_drivers::LightId;
+        use std::time::Duration;
+
+        let dir = tempfile::tempdir().unwrap();
+        let (master, slave) = pty_pair().expect("openpty");
+        let tty = slave.tty_path().expect("the pty slave's path");
+        assert!(tty.starts_with("/dev/pts"), "{}", tty.display());
+        let config = HardwareRigConfig {
+            lights: tty.display().to_string(),
+            ..rig_files(dir.path())
+        };
+        let bench = SimBench::new(
+            rig_scene(),
+            SimConfig {
+                width: 32,
+                height: 32,
+                samples: 1,
+                ..SimConfig::default()
+            },
+            Box::new(master),
+        )
+        .unwrap();
+        // The operator has already turned the object when the sequencer
+        // asks for position p1.
+        bench.footswitch.press();
+        let board = bench.board;
+        let mut rig = open_with(
+            &config,
+            Devices {
+                camera: Box::new(bench.camera),
+                projector: Some(Box::new(bench.projector)),
+                trigger: Box::new(bench.trigger),
+            },
+        )
+        .unwrap();
+        let caps = rig.capabilities();
+        assert!(caps.projector && caps.backlight, "{caps:?}");
+        let plan = plan(&Profile::default(), rig.geometry.checker_periods, caps);
+        assert!(plan.left_out.is_empty(), "{:?}", plan.left_out);
+        let target = dir.path().join("scan-0001");
+        let settings = RunSettings {
+            light_retries: 1,
+            min_light_difference: 1e-3,
+            operator_timeout: Duration::from_secs(20),
+        };
+        let outcome = rig
+            .capture(&plan, "", &target, &settings, &|| false, &mut |_| {})
+            .unwrap();
+        assert_eq!(outcome.positions, 2);
+        assert_eq!(outcome.photos, 2 * plan.captures.len());
+        assert_eq!(outcome.retries, 0, "every flash fired the first time");
+
+        let bundle = matscan_scan::Bundle::open(&target).unwrap();
+        let names: Vec<&str> = bundle.manifest.positions[1]
+            .captures
+            .iter()
+            .map(|c| c.name.as_str())
+            .collect();
+        assert_eq!(
+            names,
+            [
+                "ambient",
+                "flash0",
+                "flash1",
+                "projector",
+                "backlight",
+                "checker_8",
+                "checker_32"
+            ]
+        );
+        let mean = |name: &str| {
+            let rgb = bundle.read_photo("p1", name).unwrap();
+            rgb.data.iter().map(|p| p[0] + p[1] + p[2]).sum::<f32>() / rgb.data.len() as f32
+        };
+        let ambient = mean("ambient");
+        for lit in ["flash0", "flash1", "projector", "backlight"] {
+            assert!(
+                mean(lit) > ambient + 1e-3,
+                "{lit}: {} vs {ambient}",
+                mean(lit)
+            );
+        }
+        // Every command crossed the tty and the board ends dark.
+        drop(rig);
+        let board = board.board();
+        assert!(board.executed() >= 2 * 4, "{} commands", board.executed());
+        for light in LightId::ALL {
+            assert_eq!(board.output(light), 0, "{light:?} left on");
+        }
+        drop(slave);
     }
 }

@@ -106,13 +106,29 @@ impl SerialDevice {
             .timeout(Duration::from_millis(100))
             .open()
             .map_err(map)?;
-        port.write_data_terminal_ready(true).map_err(map)?;
+        match port.write_data_terminal_ready(true) {
+            Ok(()) => {}
+            // A terminal without modem lines (a pseudo-terminal, some USB
+            // CDC boards) cannot assert DTR: nothing resets the board, and
+            // the host's HELLO finds it awake instead of its READY banner.
+            Err(e) if no_modem_lines(&e) => {
+                tracing::debug!("{path}: no DTR line to assert ({e}); not resetting the board")
+            }
+            Err(e) => return Err(map(e)),
+        }
         port.clear(serialport::ClearBuffer::All).map_err(map)?;
         Ok(SerialDevice {
             name: path.to_string(),
             port,
         })
     }
+}
+
+/// Whether `e` says the port has no modem control lines: `ENOTTY` from
+/// the `TIOCMBIS` ioctl. serialport keeps only errno's text (nix's wording
+/// or libc's), so the text is what can be matched.
+fn no_modem_lines(e: &serialport::Error) -> bool {
+    e.description.contains("Not a typewriter") || e.description.contains("Inappropriate ioctl")
 }
 
 impl Read for SerialDevice {

@@ -110,6 +110,25 @@ impl Write for PtyPort {
     }
 }
 
+impl PtyPort {
+    /// The terminal's device path (`/dev/pts/N` for the slave end), which a
+    /// program opens as it would a serial port.
+    pub fn tty_path(&self) -> io::Result<std::path::PathBuf> {
+        let mut buf = vec![0u8; 128];
+        // SAFETY: buf is valid and writable for buf.len() bytes; ttyname_r
+        // writes a NUL-terminated path into it or returns an error number.
+        let rc =
+            unsafe { libc::ttyname_r(self.fd.as_raw_fd(), buf.as_mut_ptr().cast(), buf.len()) };
+        if rc != 0 {
+            return Err(io::Error::from_raw_os_error(rc));
+        }
+        let len = buf.iter().position(|&b| b == 0).unwrap_or(buf.len());
+        buf.truncate(len);
+        use std::os::unix::ffi::OsStringExt;
+        Ok(std::ffi::OsString::from_vec(buf).into())
+    }
+}
+
 impl Port for PtyPort {
     fn name(&self) -> &str {
         &self.name
