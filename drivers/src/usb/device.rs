@@ -26,6 +26,20 @@ pub(crate) struct HidInterface {
     pub out_endpoint: Option<u8>,
 }
 
+/// A libusb context, or an error naming the device and the likely cause.
+pub(crate) fn context(id: UsbId) -> Result<Context, DriverError> {
+    Context::new().map_err(|e| {
+        DriverError::io(
+            &id.device_name(),
+            "starting libusb",
+            io::Error::other(format!(
+                "{e}: libusb found no USB bus to use (is /dev/bus/usb there? in a container, \
+                 pass the USB bus through)"
+            )),
+        )
+    })
+}
+
 /// The first device with `id`, if any is plugged in.
 pub(crate) fn find(context: &Context, id: UsbId) -> rusb::Result<Option<Device<Context>>> {
     for device in context.devices()?.iter() {

@@ -59,7 +59,7 @@ impl UsbFootswitch {
     /// Opens the first device with `id` and claims its keyboard interface;
     /// `keys` are Linux key codes (empty: any key).
     pub fn open(id: UsbId, keys: Vec<u16>) -> Result<UsbFootswitch, DriverError> {
-        let context = Context::new().map_err(|e| device::usb_error(id, "starting libusb", e))?;
+        let context = device::context(id)?;
         let open = open_pedal(&context, id)?.ok_or_else(|| device::not_found(id, "footswitch"))?;
         Ok(UsbFootswitch {
             id,

@@ -34,7 +34,7 @@ pub struct RusbHid {
 impl RusbHid {
     /// Finds the device with `id`, detaches usbhid and claims interface 0.
     pub fn open(id: UsbId) -> Result<RusbHid, DriverError> {
-        let context = Context::new().map_err(|e| device::usb_error(id, "starting libusb", e))?;
+        let context = device::context(id)?;
         let found = device::find(&context, id)
             .map_err(|e| device::usb_error(id, "listing USB devices", e))?
             .ok_or_else(|| device::not_found(id, "LightCrafter"))?;
