@@ -478,6 +478,40 @@ impl KmsScanout {
         Ok(())
     }
 
+    /// Reads and drops the events already queued on the card.
+    fn drain_events(&mut self) -> Result<(), DriverError> {
+        while self.poll_readable(0)? {
+            let dropped = self
+                .card
+                .receive_events()
+                .map_err(self.io_err("reading DRM events"))?
+                .count();
+            tracing::debug!(projector = %self.name, dropped, "dropped stale DRM events");
+        }
+        Ok(())
+    }
+
+    /// Whether the card has events to read within `ms` milliseconds.
+    fn poll_readable(&self, ms: libc::c_int) -> Result<bool, DriverError> {
+        loop {
+            let mut fds = [libc::pollfd {
+                fd: self.card.as_fd().as_raw_fd(),
+                events: libc::POLLIN,
+                revents: 0,
+            }];
+            // SAFETY: `fds` is one valid pollfd on an fd we own for the
+            // whole call.
+            let n = unsafe { libc::poll(fds.as_mut_ptr(), 1, ms) };
+            if n >= 0 {
+                return Ok(n > 0);
+            }
+            let e = io::Error::last_os_error();
+            if e.kind() != io::ErrorKind::Interrupted {
+                return Err(DriverError::io(&self.name, "polling for DRM events", e));
+            }
+        }
+    }
+
     fn io_err(&self, action: &'static str) -> impl FnOnce(io::Error) -> DriverError + '_ {
         move |e| DriverError::io(&self.name, action, e)
     }
@@ -522,7 +556,10 @@ impl Scanout for KmsScanout {
                 self.io_err("setting the mode (the projector refused it, or DRM master was lost?)"),
             )?;
         self.modeset = true;
-        Ok(())
+        // A flip that timed out before this (recovery) modeset has sent its
+        // event by now (the modeset waits for it); drop it so the next
+        // wait does not take it for its own.
+        self.drain_events()
     }
 
     fn page_flip(&mut self, index: usize) -> Result<(), DriverError> {
@@ -538,23 +575,8 @@ impl Scanout for KmsScanout {
             if left.is_zero() {
                 return Ok(None);
             }
-            let mut fds = [libc::pollfd {
-                fd: self.card.as_fd().as_raw_fd(),
-                events: libc::POLLIN,
-                revents: 0,
-            }];
             let ms = left.as_micros().div_ceil(1000).min(i32::MAX as u128) as libc::c_int;
-            // SAFETY: `fds` is one valid pollfd on an fd we own for the
-            // whole call.
-            let n = unsafe { libc::poll(fds.as_mut_ptr(), 1, ms) };
-            if n < 0 {
-                let e = io::Error::last_os_error();
-                if e.kind() == io::ErrorKind::Interrupted {
-                    continue;
-                }
-                return Err(DriverError::io(&self.name, "polling for the flip event", e));
-            }
-            if n == 0 {
+            if !self.poll_readable(ms)? {
                 continue;
             }
             let events = self
