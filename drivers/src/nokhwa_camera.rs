@@ -432,7 +432,10 @@ pub struct NokhwaCamera {
     name: String,
     format: CameraFormat,
     stale: StaleFrames,
+    /// Frames returned by `capture`.
     frames: u64,
+    /// Frames received from nokhwa, stale ones included (the sequence).
+    grabbed: u64,
     commands: Option<Sender<Command>>,
     replies: Receiver<Reply>,
     /// A `Grab` was sent and its frame has not come back yet.
@@ -492,6 +495,7 @@ impl NokhwaCamera {
             format,
             stale,
             frames: 0,
+            grabbed: 0,
             commands: Some(cmd_tx),
             replies: reply_rx,
             grabbing: false,
@@ -548,7 +552,8 @@ impl NokhwaCamera {
             timestamp: raw.timestamp,
             exposure_s: self.config.settings.exposure_s(),
             gain: self.config.settings.gain(),
-            sequence: self.frames,
+            // Counts stale frames too, so gaps show the frames dropped.
+            sequence: self.grabbed.saturating_sub(1),
         })
     }
 }
@@ -595,7 +600,11 @@ impl Camera for NokhwaCamera {
                     break;
                 }
                 // A frame grabbed before the lock is stale anyway.
-                Ok(_) => self.grabbing = false,
+                Ok(Reply::Frame(r)) => {
+                    self.grabbing = false;
+                    self.grabbed += u64::from(r.is_ok());
+                }
+                Ok(Reply::Opened(_)) => {}
                 Err(RecvTimeoutError::Timeout) => {
                     return Err(DriverError::Control {
                         device: self.name.clone(),
@@ -635,7 +644,16 @@ impl Camera for NokhwaCamera {
             let raw = match self.replies.recv_timeout(left) {
                 Ok(Reply::Frame(r)) => {
                     self.grabbing = false;
-                    r?
+                    match r {
+                        Ok(raw) => {
+                            self.grabbed += 1;
+                            raw
+                        }
+                        Err(DriverError::CameraLost { reason, .. }) => {
+                            return Err(self.lost(reason))
+                        }
+                        Err(e) => return Err(e),
+                    }
                 }
                 Ok(_) => continue,
                 Err(RecvTimeoutError::Timeout) => return Err(self.no_fresh_frame(start)),
