@@ -9,6 +9,13 @@
 //! - [`convert`]: camera pixel formats (YUYV, MJPG, GREY, RGB24) to linear
 //!   RGB, and the stale-frame rule after a change;
 //! - `v4l2` (feature `hardware`): V4L2 cameras over `v4l`;
+//! - `nokhwa_camera` (feature `hardware`): the portable camera backend,
+//!   with the controls it cannot lock written down;
+//! - [`kms`]: the projector full screen on a DRM/KMS output (EDID, modes,
+//!   the gamma-encoded pattern raster and the page-flip logic always; the
+//!   device behind `hardware`);
+//! - [`usb`]: a TI LightCrafter's USB HID command channel and raw USB
+//!   footswitches (codecs always; libusb behind `hardware`);
 //! - [`footswitch`]: USB footswitches read through evdev with an exclusive
 //!   grab (only `libc`, so it builds without `hardware`);
 //! - `sim_rig` (feature `simulated-hardware`): the same traits backed by
@@ -17,8 +24,10 @@
 //! Boundaries: talks to devices and renders simulated photos; knows nothing
 //! of scan bundles beyond the pattern and raster types, and nothing of
 //! estimation. Crate choices: `serialport` (no libudev), `libc` for the
-//! pseudo-terminal, evdev and clock calls, `zune-jpeg` (pure Rust) for MJPG,
-//! and `v4l` only behind `hardware` because its bindings need libclang.
+//! pseudo-terminal, evdev and clock calls, `zune-jpeg` (pure Rust) for MJPG;
+//! behind `hardware`: `v4l` and `nokhwa` (their bindings need libclang),
+//! `drm` (safe KMS ioctls, pregenerated bindings) and `rusb` (libusb built
+//! from source, no libudev), so the default build needs no system package.
 
 pub mod convert;
 pub mod error;

@@ -295,6 +295,13 @@ pub trait Projector {
     fn resolution(&self) -> (u32, u32);
     fn show(&mut self, pattern: ProjectorPattern) -> Result<(), DriverError>;
     fn pattern(&self) -> ProjectorPattern;
+    /// Whether [`Projector::show`] can show `pattern` exactly; a capture
+    /// plan leaves out the photos of patterns it cannot. A framebuffer
+    /// shows anything, hence the default.
+    fn can_show(&self, pattern: &ProjectorPattern) -> bool {
+        let _ = pattern;
+        true
+    }
 }
 
 /// One footswitch press.

@@ -5,10 +5,13 @@
 //!
 //! Boundaries: reads text; opens no device and no socket.
 
+use matscan_drivers::kms::{Gamma, ModeRequest};
+use matscan_drivers::usb::UsbId;
 use matscan_scan::Param;
 use matscan_sim::scene::{GeometryKind, SceneKind};
 use serde::Deserialize;
 use std::collections::{BTreeMap, BTreeSet};
+use std::num::NonZeroU32;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
@@ -83,8 +86,7 @@ pub enum RigChoice {
 /// and the files that give its geometry.
 #[derive(Debug, Clone, PartialEq)]
 pub struct HardwareRigConfig {
-    /// V4L2 device; prefer `/dev/v4l/by-id/...` (stable across boots).
-    pub camera: String,
+    pub camera: CameraSource,
     /// Capture size in pixels; must match the calibrated intrinsics.
     pub width: u32,
     pub height: u32,
@@ -93,10 +95,14 @@ pub struct HardwareRigConfig {
     /// The light controller's serial port (`/dev/serial/by-id/...`).
     pub lights: String,
     pub baud: u32,
-    /// The footswitch's evdev node (`/dev/input/by-id/...-event-kbd`).
-    pub footswitch: String,
-    /// Key codes that count as a press; empty: any key.
+    pub footswitch: FootswitchSource,
+    /// Linux key codes (as `evtest` shows them) that count as a press;
+    /// empty: any key.
     pub footswitch_keys: Vec<u16>,
+    /// `None`: the rig has no projector (no projector or checker photos).
+    pub projector: Option<ProjectorSource>,
+    /// The two checkerboard periods, projector pixels.
+    pub checker_periods: (NonZeroU32, NonZeroU32),
     /// The rig calibration file: a scan manifest without captures.
     pub calibration: PathBuf,
     /// Where the scanner software exports the object's mesh (re-read at
@@ -104,14 +110,95 @@ pub struct HardwareRigConfig {
     pub mesh: PathBuf,
 }
 
+/// Where the photos come from.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum CameraSource {
+    /// A V4L2 device; prefer `/dev/v4l/by-id/...` (stable across boots).
+    V4l2(String),
+    /// nokhwa's portable backend (`nokhwa:<index or path>`), for cameras
+    /// the V4L2 driver cannot open; it cannot lock every control.
+    Nokhwa(String),
+}
+
+/// What the operator presses.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum FootswitchSource {
+    /// An evdev node, grabbed exclusively
+    /// (`/dev/input/by-id/...-event-kbd`).
+    Evdev(String),
+    /// Raw USB (`usb:VVVV:PPPP`): the kernel's keyboard driver is
+    /// detached, so the pedal never types anywhere.
+    Usb(UsbId),
+}
+
+/// The pattern projector.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ProjectorSource {
+    /// Full screen on a DRM/KMS output (`drm` or `drm:<connector>`).
+    Drm {
+        card: PathBuf,
+        /// `None`: the only connected output.
+        connector: Option<String>,
+        /// `None`: the output's preferred mode; forced when the projector
+        /// reports no modes.
+        mode: Option<ModeRequest>,
+        /// From the flip to the projector emitting the frame.
+        latency: Duration,
+        gamma: f32,
+    },
+    /// A TI DLP LightCrafter's test-pattern generator over USB HID
+    /// (`lightcrafter` or `lightcrafter:VVVV:PPPP`).
+    LightCrafter { id: UsbId, settle: Duration },
+}
+
+impl std::fmt::Display for CameraSource {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            CameraSource::V4l2(path) => write!(f, "{path}"),
+            CameraSource::Nokhwa(selector) => write!(f, "nokhwa:{selector}"),
+        }
+    }
+}
+
+impl std::fmt::Display for FootswitchSource {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            FootswitchSource::Evdev(path) => write!(f, "{path}"),
+            FootswitchSource::Usb(id) => write!(f, "usb:{:04x}:{:04x}", id.vendor, id.product),
+        }
+    }
+}
+
+impl std::fmt::Display for ProjectorSource {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            ProjectorSource::Drm {
+                card, connector, ..
+            } => write!(
+                f,
+                "drm {} {}",
+                card.display(),
+                connector.as_deref().unwrap_or("(the connected output)")
+            ),
+            ProjectorSource::LightCrafter { id, .. } => {
+                write!(f, "lightcrafter usb:{:04x}:{:04x}", id.vendor, id.product)
+            }
+        }
+    }
+}
+
 impl RigChoice {
     pub fn describe(&self) -> String {
         match self {
             RigChoice::Hardware(h) => format!(
-                "hardware (camera {}, lights {}, footswitch {}, calibration {}, mesh {})",
+                "hardware (camera {}, lights {}, footswitch {}, projector {}, calibration {}, \
+                 mesh {})",
                 h.camera,
                 h.lights,
                 h.footswitch,
+                h.projector
+                    .as_ref()
+                    .map_or_else(|| "none".to_string(), |p| p.to_string()),
                 h.calibration.display(),
                 h.mesh.display()
             ),
@@ -231,6 +318,12 @@ struct RawHardware {
     footswitch: Option<String>,
     #[serde(default)]
     footswitch_keys: Vec<u16>,
+    projector: Option<String>,
+    projector_card: Option<PathBuf>,
+    projector_mode: Option<String>,
+    projector_latency_ms: Option<u64>,
+    projector_gamma: Option<f32>,
+    checker_periods: Option<[u32; 2]>,
     calibration: Option<PathBuf>,
     mesh: Option<PathBuf>,
 }
@@ -438,9 +531,46 @@ fn hardware(
             )
         })
     };
+    let projector = projector(&raw, invalid)?;
     let camera = required(raw.camera, "camera", "the camera's V4L2 device path")?;
+    let camera = match camera.strip_prefix("nokhwa:") {
+        Some("") => {
+            return Err(invalid(
+                "hardware.camera",
+                "`nokhwa:` needs a camera: `nokhwa:0` (index) or `nokhwa:/dev/video0`".into(),
+            ))
+        }
+        Some(selector) => CameraSource::Nokhwa(selector.to_string()),
+        None => CameraSource::V4l2(camera),
+    };
     let lights = required(raw.lights, "lights", "the light controller's serial port")?;
-    let footswitch = required(raw.footswitch, "footswitch", "the footswitch's evdev node")?;
+    let footswitch = required(
+        raw.footswitch,
+        "footswitch",
+        "the footswitch's evdev node or `usb:VVVV:PPPP`",
+    )?;
+    let footswitch = match footswitch.strip_prefix("usb:") {
+        Some(id) => FootswitchSource::Usb(
+            id.parse::<UsbId>()
+                .map_err(|e| invalid("hardware.footswitch", e.to_string()))?,
+        ),
+        None => FootswitchSource::Evdev(footswitch),
+    };
+    let [fine, coarse] = raw.checker_periods.unwrap_or([8, 32]);
+    let checker_periods = match (NonZeroU32::new(fine), NonZeroU32::new(coarse)) {
+        (Some(f), Some(c)) if fine >= 2 && coarse >= 2 && fine % 2 == 0 && coarse % 2 == 0 => {
+            (f, c)
+        }
+        _ => {
+            return Err(invalid(
+                "hardware.checker_periods",
+                format!(
+                    "[{fine}, {coarse}]: expected two even periods of at least 2 projector \
+                     pixels (a period is one light and one dark square)"
+                ),
+            ))
+        }
+    };
     let calibration = raw.calibration.ok_or_else(|| {
         invalid(
             "hardware.calibration",
@@ -484,9 +614,97 @@ fn hardware(
         baud: raw.baud.unwrap_or(115_200),
         footswitch,
         footswitch_keys: raw.footswitch_keys,
+        projector,
+        checker_periods,
         calibration,
         mesh,
     })
+}
+
+/// `[hardware] projector` and its keys: `drm`, `drm:<connector>`,
+/// `lightcrafter`, `lightcrafter:VVVV:PPPP`, `none` or absent.
+fn projector(
+    raw: &RawHardware,
+    invalid: &dyn Fn(&str, String) -> ConfigError,
+) -> Result<Option<ProjectorSource>, ConfigError> {
+    let choice = raw.projector.as_deref().map(str::trim);
+    let is_drm = matches!(choice, Some(c) if c == "drm" || c.starts_with("drm:"));
+    let drm_only = [
+        ("projector_card", raw.projector_card.is_some()),
+        ("projector_mode", raw.projector_mode.is_some()),
+        ("projector_gamma", raw.projector_gamma.is_some()),
+    ];
+    if !is_drm {
+        if let Some((key, _)) = drm_only.iter().find(|(_, set)| *set) {
+            return Err(invalid(
+                &format!("hardware.{key}"),
+                "only applies to a DRM projector (`projector = \"drm:<connector>\"`)".into(),
+            ));
+        }
+    }
+    let latency = |default_ms: u64| match raw.projector_latency_ms {
+        Some(ms) if ms > 10_000 => Err(invalid(
+            "hardware.projector_latency_ms",
+            format!("{ms}: expected at most 10000 ms"),
+        )),
+        ms => Ok(Duration::from_millis(ms.unwrap_or(default_ms))),
+    };
+    let Some(choice) = choice else {
+        return Ok(None);
+    };
+    if choice == "none" {
+        return Ok(None);
+    }
+    if is_drm {
+        let connector = choice
+            .strip_prefix("drm:")
+            .map(str::trim)
+            .filter(|c| !c.is_empty())
+            .map(str::to_string);
+        let mode = match &raw.projector_mode {
+            None => None,
+            Some(m) => Some(
+                m.parse::<ModeRequest>()
+                    .map_err(|e| invalid("hardware.projector_mode", e.to_string()))?,
+            ),
+        };
+        let gamma = raw.projector_gamma.unwrap_or(2.2);
+        if Gamma::new(gamma).is_none() {
+            return Err(invalid(
+                "hardware.projector_gamma",
+                format!("{gamma}: expected the projector's video gamma, e.g. 2.2"),
+            ));
+        }
+        return Ok(Some(ProjectorSource::Drm {
+            card: raw
+                .projector_card
+                .clone()
+                .unwrap_or_else(|| PathBuf::from("/dev/dri/card0")),
+            connector,
+            mode,
+            latency: latency(100)?,
+            gamma,
+        }));
+    }
+    if choice == "lightcrafter" || choice.starts_with("lightcrafter:") {
+        let id = match choice.strip_prefix("lightcrafter:") {
+            None => UsbId::LIGHTCRAFTER_4500,
+            Some(id) => id
+                .parse::<UsbId>()
+                .map_err(|e| invalid("hardware.projector", e.to_string()))?,
+        };
+        return Ok(Some(ProjectorSource::LightCrafter {
+            id,
+            settle: latency(50)?,
+        }));
+    }
+    Err(invalid(
+        "hardware.projector",
+        format!(
+            "`{choice}`: expected `drm`, `drm:<connector>` (e.g. `drm:HDMI-A-1`), \
+             `lightcrafter`, `lightcrafter:VVVV:PPPP` or `none`"
+        ),
+    ))
 }
 
 fn simulated(
@@ -653,7 +871,16 @@ mod tests {
         let RigChoice::Hardware(h) = &c.rig else {
             panic!("not hardware: {:?}", c.rig);
         };
-        assert_eq!(h.camera, "/dev/v4l/by-id/cam");
+        assert_eq!(h.camera, CameraSource::V4l2("/dev/v4l/by-id/cam".into()));
+        assert_eq!(
+            h.footswitch,
+            FootswitchSource::Evdev("/dev/input/by-id/fs".into())
+        );
+        assert_eq!(h.projector, None, "no projector unless configured");
+        assert_eq!(
+            (h.checker_periods.0.get(), h.checker_periods.1.get()),
+            (8, 32)
+        );
         assert_eq!((h.width, h.height, h.baud), (1920, 1080, 115_200));
         assert_eq!(h.exposure_s, 0.02);
         assert_eq!(h.footswitch_keys, vec![30]);
@@ -662,5 +889,148 @@ mod tests {
             .rig
             .describe()
             .starts_with("hardware (camera /dev/v4l/by-id/cam"));
+    }
+
+    const HARDWARE: &str = "rig = \"hardware\"\n[hardware]\ncamera = \"/dev/v4l/by-id/cam\"\n\
+         lights = \"/dev/ttyACM0\"\nfootswitch = \"/dev/input/by-id/fs\"\n\
+         calibration = \"/etc/matscan/rig.toml\"\nmesh = \"/tmp/object.ply\"\n\
+         width = 1920\nheight = 1080\n";
+
+    fn hardware_with(extra: &str) -> Result<HardwareRigConfig, ConfigError> {
+        let c = parse(&format!("{HARDWARE}{extra}"))?;
+        match c.rig {
+            RigChoice::Hardware(h) => Ok(h),
+            other => panic!("not hardware: {other:?}"),
+        }
+    }
+
+    #[test]
+    fn projector_footswitch_and_camera_sources_parse_with_their_defaults() {
+        let h = hardware_with(
+            "projector = \"drm:HDMI-A-1\"\nprojector_mode = \"1280x800@60\"\nfootswitch_keys = [48]\n",
+        )
+        .unwrap();
+        let Some(ProjectorSource::Drm {
+            card,
+            connector,
+            mode,
+            latency,
+            gamma,
+        }) = &h.projector
+        else {
+            panic!("not drm: {:?}", h.projector);
+        };
+        assert_eq!(card, &PathBuf::from("/dev/dri/card0"));
+        assert_eq!(connector.as_deref(), Some("HDMI-A-1"));
+        assert_eq!(mode, &Some("1280x800@60".parse::<ModeRequest>().unwrap()));
+        assert_eq!((*latency, *gamma), (Duration::from_millis(100), 2.2));
+
+        let h =
+            hardware_with("projector = \"drm\"\nprojector_card = \"/dev/dri/card1\"\n").unwrap();
+        assert!(matches!(
+            &h.projector,
+            Some(ProjectorSource::Drm { card, connector: None, mode: None, .. })
+                if card == &PathBuf::from("/dev/dri/card1")
+        ));
+
+        let h = hardware_with("projector = \"lightcrafter\"\nprojector_latency_ms = 80\n").unwrap();
+        assert_eq!(
+            h.projector,
+            Some(ProjectorSource::LightCrafter {
+                id: UsbId::LIGHTCRAFTER_4500,
+                settle: Duration::from_millis(80)
+            })
+        );
+        assert_eq!(
+            hardware_with("projector = \"none\"\n").unwrap().projector,
+            None
+        );
+
+        let c = parse(&HARDWARE.replace("/dev/input/by-id/fs", "usb:0c45:7403")).unwrap();
+        let RigChoice::Hardware(h) = &c.rig else {
+            panic!("not hardware")
+        };
+        assert_eq!(
+            h.footswitch,
+            FootswitchSource::Usb(UsbId {
+                vendor: 0x0c45,
+                product: 0x7403
+            })
+        );
+        assert!(
+            c.rig.describe().contains("footswitch usb:0c45:7403"),
+            "{}",
+            c.rig.describe()
+        );
+        let c = parse(&HARDWARE.replace("/dev/v4l/by-id/cam", "nokhwa:0")).unwrap();
+        let RigChoice::Hardware(h) = &c.rig else {
+            panic!("not hardware")
+        };
+        assert_eq!(h.camera, CameraSource::Nokhwa("0".into()));
+        let h = hardware_with("checker_periods = [4, 16]\n").unwrap();
+        assert_eq!(
+            (h.checker_periods.0.get(), h.checker_periods.1.get()),
+            (4, 16)
+        );
+    }
+
+    #[test]
+    fn bad_projector_footswitch_and_period_settings_name_the_key() {
+        let cases: [(&str, &str, &str); 7] = [
+            (
+                "projector = \"vga\"\n",
+                "hardware.projector",
+                "expected `drm`",
+            ),
+            (
+                "projector = \"drm\"\nprojector_mode = \"big\"\n",
+                "hardware.projector_mode",
+                "big",
+            ),
+            (
+                "projector = \"drm\"\nprojector_gamma = -1.0\n",
+                "hardware.projector_gamma",
+                "-1",
+            ),
+            (
+                "projector_mode = \"1280x800\"\n",
+                "hardware.projector_mode",
+                "only applies to a DRM projector",
+            ),
+            (
+                "projector = \"lightcrafter:nope\"\n",
+                "hardware.projector",
+                "nope",
+            ),
+            (
+                "checker_periods = [7, 32]\n",
+                "hardware.checker_periods",
+                "[7, 32]: expected two even periods",
+            ),
+            (
+                "projector = \"drm\"\nprojector_latency_ms = 60000\n",
+                "hardware.projector_latency_ms",
+                "at most 10000",
+            ),
+        ];
+        for (extra, key, want) in cases {
+            let e = hardware_with(extra).unwrap_err().to_string();
+            assert!(e.contains(&format!("`{key}`")), "{extra:?}: {e}");
+            assert!(e.contains(want), "{extra:?}: {e}");
+        }
+        let e = parse(&HARDWARE.replace("/dev/input/by-id/fs", "usb:12"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("`hardware.footswitch`") && e.contains("12"),
+            "{e}"
+        );
+        let e = parse(&HARDWARE.replace("/dev/v4l/by-id/cam", "nokhwa:"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("`hardware.camera`") && e.contains("nokhwa:0"),
+            "{e}"
+        );
     }
 }

@@ -25,18 +25,13 @@
 //!
 //! Boundaries: opens devices and reads files; takes no photo.
 
-use super::config::HardwareRigConfig;
+use super::config::{CameraSource, FootswitchSource, HardwareRigConfig, ProjectorSource};
 use super::sequencer::{PositionGeometry, Rig, RigGeometry};
 use matscan_drivers::footswitch::EvdevFootswitch;
 use matscan_drivers::serial::{open_lights, HostConfig};
 use matscan_drivers::{Camera, DriverError, Projector, Trigger};
 use matscan_scan::{LightKind, Manifest, Mesh, ScanError};
-use std::num::NonZeroU32;
 use std::path::{Path, PathBuf};
-
-/// Checkerboard periods written into the geometry; unused while the rig
-/// has no projector, kept valid so the type needs no special case.
-const CHECKER_PERIODS: (u32, u32) = (8, 32);
 
 /// Opening the hardware rig failed.
 #[derive(Debug, thiserror::Error)]
@@ -97,8 +92,23 @@ pub fn load_geometry(config: &HardwareRigConfig) -> Result<RigGeometry, Hardware
             }
         }
     }
+    if config.projector.is_some() {
+        for position in &manifest.positions {
+            let has = position
+                .lights
+                .iter()
+                .any(|l| matches!(l.kind, LightKind::Projector { .. }));
+            if !has {
+                return Err(invalid(format!(
+                    "position `{}`: hardware.projector is set, but no light of kind \
+                     `projector` is calibrated here (add its pose and intrinsics, or remove \
+                     hardware.projector)",
+                    position.name
+                )));
+            }
+        }
+    }
     let mesh = read_mesh(&config.mesh)?;
-    let period = |p: u32| NonZeroU32::new(p).unwrap_or(NonZeroU32::MIN);
     Ok(RigGeometry {
         name: manifest.name.clone(),
         mesh,
@@ -113,7 +123,7 @@ pub fn load_geometry(config: &HardwareRigConfig) -> Result<RigGeometry, Hardware
                 exposure_s: config.exposure_s,
             })
             .collect(),
-        checker_periods: (period(CHECKER_PERIODS.0), period(CHECKER_PERIODS.1)),
+        checker_periods: config.checker_periods,
     })
 }
 
@@ -137,12 +147,20 @@ pub struct Devices {
 /// wrong file is the likeliest mistake and needs no device.
 pub fn open(config: &HardwareRigConfig) -> Result<Rig, HardwareError> {
     let geometry = load_geometry(config)?;
-    let camera = open_camera(config)?;
-    let footswitch = EvdevFootswitch::open(&config.footswitch, config.footswitch_keys.clone())?;
+    let camera = open_camera(&config.camera, config)?;
+    let projector = match &config.projector {
+        None => None,
+        Some(source) => {
+            let projector = open_projector(source)?;
+            check_projector_size(config, &geometry, projector.as_ref())?;
+            Some(projector)
+        }
+    };
+    let trigger = open_footswitch(&config.footswitch, &config.footswitch_keys)?;
     let devices = Devices {
         camera,
-        projector: None,
-        trigger: Box::new(footswitch),
+        projector,
+        trigger,
     };
     assemble(config, geometry, devices)
 }
@@ -175,27 +193,142 @@ fn assemble(
     })
 }
 
+/// The error of a device this build cannot drive.
+#[cfg(not(feature = "hardware"))]
+fn not_built(device: String, what: &str) -> HardwareError {
+    HardwareError::Driver(DriverError::InvalidSetting {
+        device,
+        reason: format!(
+            "this matscan was built without {what}; rebuild with \
+             `cargo build --release -p matscan --features hardware` (needs libclang-dev)"
+        ),
+    })
+}
+
 #[cfg(feature = "hardware")]
-fn open_camera(config: &HardwareRigConfig) -> Result<Box<dyn Camera>, HardwareError> {
+fn open_camera(
+    source: &CameraSource,
+    config: &HardwareRigConfig,
+) -> Result<Box<dyn Camera>, HardwareError> {
+    use matscan_drivers::nokhwa_camera::{CameraSelector, NokhwaCamera, NokhwaConfig};
     use matscan_drivers::v4l2::{V4l2Camera, V4l2Config};
-    let camera = V4l2Camera::open(V4l2Config::new(&config.camera, config.width, config.height))?;
-    Ok(Box::new(camera))
+    Ok(match source {
+        CameraSource::V4l2(path) => Box::new(V4l2Camera::open(V4l2Config::new(
+            path,
+            config.width,
+            config.height,
+        ))?),
+        CameraSource::Nokhwa(selector) => Box::new(NokhwaCamera::open(NokhwaConfig::new(
+            CameraSelector::parse(selector),
+            config.width,
+            config.height,
+        ))?),
+    })
 }
 
 #[cfg(not(feature = "hardware"))]
-fn open_camera(config: &HardwareRigConfig) -> Result<Box<dyn Camera>, HardwareError> {
-    Err(HardwareError::Driver(DriverError::InvalidSetting {
-        device: config.camera.clone(),
-        reason: "this matscan was built without V4L2 support; rebuild with \
-                 `cargo build --release -p matscan --features hardware` (needs libclang-dev)"
-            .to_string(),
-    }))
+fn open_camera(
+    source: &CameraSource,
+    _config: &HardwareRigConfig,
+) -> Result<Box<dyn Camera>, HardwareError> {
+    let what = match source {
+        CameraSource::V4l2(_) => "V4L2 support",
+        CameraSource::Nokhwa(_) => "the nokhwa camera backend",
+    };
+    Err(not_built(source.to_string(), what))
+}
+
+#[cfg(feature = "hardware")]
+fn open_projector(source: &ProjectorSource) -> Result<Box<dyn Projector>, HardwareError> {
+    use matscan_drivers::kms::{DrmConfig, DrmProjector};
+    use matscan_drivers::usb::{LightCrafter, LightCrafterConfig};
+    Ok(match source {
+        ProjectorSource::Drm {
+            card,
+            connector,
+            mode,
+            latency,
+            gamma,
+        } => Box::new(DrmProjector::open(DrmConfig {
+            connector: connector.clone(),
+            mode: *mode,
+            latency: *latency,
+            gamma: *gamma,
+            ..DrmConfig::new(card)
+        })?),
+        ProjectorSource::LightCrafter { id, settle } => {
+            Box::new(LightCrafter::open(LightCrafterConfig {
+                id: *id,
+                settle: *settle,
+                ..LightCrafterConfig::default()
+            })?)
+        }
+    })
+}
+
+#[cfg(not(feature = "hardware"))]
+fn open_projector(source: &ProjectorSource) -> Result<Box<dyn Projector>, HardwareError> {
+    let what = match source {
+        ProjectorSource::Drm { .. } => "DRM/KMS projector support",
+        ProjectorSource::LightCrafter { .. } => "USB (LightCrafter) support",
+    };
+    Err(not_built(source.to_string(), what))
+}
+
+fn open_footswitch(
+    source: &FootswitchSource,
+    keys: &[u16],
+) -> Result<Box<dyn Trigger>, HardwareError> {
+    match source {
+        FootswitchSource::Evdev(path) => Ok(Box::new(EvdevFootswitch::open(path, keys.to_vec())?)),
+        #[cfg(feature = "hardware")]
+        FootswitchSource::Usb(id) => Ok(Box::new(matscan_drivers::usb::UsbFootswitch::open(
+            *id,
+            keys.to_vec(),
+        )?)),
+        #[cfg(not(feature = "hardware"))]
+        FootswitchSource::Usb(_) => Err(not_built(source.to_string(), "raw USB support")),
+    }
+}
+
+/// The projector must show the resolution its calibration describes, or
+/// every checker square lands somewhere else than the estimator assumes.
+fn check_projector_size(
+    config: &HardwareRigConfig,
+    geometry: &RigGeometry,
+    projector: &dyn Projector,
+) -> Result<(), HardwareError> {
+    let shown = projector.resolution();
+    for position in &geometry.positions {
+        for light in &position.lights {
+            if let LightKind::Projector { intrinsics, .. } = &light.kind {
+                if (intrinsics.width, intrinsics.height) != shown {
+                    return Err(HardwareError::Invalid {
+                        path: config.calibration.clone(),
+                        message: format!(
+                            "position `{}`: the projector `{}` is calibrated at {}x{}, but {} \
+                             shows {}x{} (set hardware.projector_mode or recalibrate)",
+                            position.name,
+                            light.name,
+                            intrinsics.width,
+                            intrinsics.height,
+                            projector.id(),
+                            shown.0,
+                            shown.1
+                        ),
+                    });
+                }
+            }
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use matscan_sim::scene::{generate, GeometryKind, GeometrySource, SceneKind, SceneOptions};
+    use std::num::NonZeroU32;
 
     /// The simulated scene the rig files of these tests describe.
     fn rig_scene() -> matscan_sim::scene::Scene {
@@ -237,14 +370,16 @@ mod tests {
         let mesh = dir.join("object.ply");
         matscan_scan::mesh_io::write_ply(&mesh, &scene.mesh).unwrap();
         HardwareRigConfig {
-            camera: "/dev/v4l/by-id/usb-test-video-index0".into(),
+            camera: CameraSource::V4l2("/dev/v4l/by-id/usb-test-video-index0".into()),
             width: 32,
             height: 32,
             exposure_s: 0.02,
             lights: dir.join("no-such-serial-port").display().to_string(),
             baud: 115_200,
-            footswitch: "/dev/input/by-id/no-such-footswitch".into(),
+            footswitch: FootswitchSource::Evdev("/dev/input/by-id/no-such-footswitch".into()),
             footswitch_keys: vec![],
+            projector: None,
+            checker_periods: (NonZeroU32::new(8).unwrap(), NonZeroU32::new(32).unwrap()),
             calibration,
             mesh,
         }
@@ -285,6 +420,126 @@ mod tests {
         let e = load_geometry(&config).unwrap_err().to_string();
         assert!(e.contains("rig.toml"), "{e}");
         assert!(e.contains("point light named `flash1`"), "{e}");
+    }
+
+    /// A projector of a fixed resolution that shows uniform levels only.
+    struct FixedProjector((u32, u32));
+
+    impl Projector for FixedProjector {
+        fn id(&self) -> &str {
+            "drm:/dev/dri/card0:HDMI-A-1"
+        }
+        fn resolution(&self) -> (u32, u32) {
+            self.0
+        }
+        fn show(&mut self, _: matscan_drivers::ProjectorPattern) -> Result<(), DriverError> {
+            Ok(())
+        }
+        fn pattern(&self) -> matscan_drivers::ProjectorPattern {
+            matscan_drivers::ProjectorPattern::Black
+        }
+        fn can_show(&self, pattern: &matscan_drivers::ProjectorPattern) -> bool {
+            !matches!(pattern, matscan_drivers::ProjectorPattern::Checker(_))
+        }
+    }
+
+    #[test]
+    fn a_projector_that_cannot_show_checkers_gets_a_plan_without_them() {
+        let dir = tempfile::tempdir().unwrap();
+        let config = rig_files(dir.path());
+        let geometry = load_geometry(&config).unwrap();
+        let rig = Rig {
+            camera: Box::new(NoCamera),
+            lights: Box::new(NoLights),
+            projector: Some(Box::new(FixedProjector((32, 32)))),
+            positioner: None,
+            trigger: None,
+            disk: None,
+            geometry,
+            truth: None,
+            mesh_source: None,
+        };
+        let caps = rig.capabilities();
+        assert!(
+            caps.projector && !caps.checkers && caps.backlight,
+            "{caps:?}"
+        );
+        let plan = crate::service::plan::plan(
+            &crate::service::config::Profile::default(),
+            rig.geometry.checker_periods,
+            caps,
+        );
+        let names: Vec<&str> = plan.captures.iter().map(|c| c.name.as_str()).collect();
+        assert_eq!(
+            names,
+            ["ambient", "flash0", "flash1", "projector", "backlight"]
+        );
+    }
+
+    #[test]
+    fn a_projector_showing_another_resolution_than_calibrated_is_refused_naming_both() {
+        let dir = tempfile::tempdir().unwrap();
+        let config = rig_files(dir.path());
+        let geometry = load_geometry(&config).unwrap();
+        let calibrated = geometry.positions[0]
+            .lights
+            .iter()
+            .find_map(|l| match &l.kind {
+                LightKind::Projector { intrinsics, .. } => {
+                    Some((intrinsics.width, intrinsics.height))
+                }
+                _ => None,
+            })
+            .expect("the simulated rig file calibrates a projector");
+        assert!(check_projector_size(&config, &geometry, &FixedProjector(calibrated)).is_ok());
+        let e = check_projector_size(&config, &geometry, &FixedProjector((1280, 800)))
+            .unwrap_err()
+            .to_string();
+        let want = format!("calibrated at {}x{}", calibrated.0, calibrated.1);
+        assert!(e.contains("rig.toml") && e.contains(&want), "{e}");
+        assert!(e.contains("HDMI-A-1 shows 1280x800"), "{e}");
+    }
+
+    #[test]
+    fn a_configured_projector_without_a_calibrated_one_is_refused_naming_the_position() {
+        let dir = tempfile::tempdir().unwrap();
+        let config = rig_files(dir.path());
+        let text = std::fs::read_to_string(&config.calibration).unwrap();
+        let (manifest, _) = Manifest::parse_rig(&text, &config.calibration).unwrap();
+        let without: Vec<_> = manifest
+            .positions
+            .iter()
+            .map(|p| matscan_scan::Position {
+                lights: p
+                    .lights
+                    .iter()
+                    .filter(|l| !matches!(l.kind, LightKind::Projector { .. }))
+                    .cloned()
+                    .collect(),
+                ..p.clone()
+            })
+            .collect();
+        let manifest = Manifest {
+            positions: without,
+            ..manifest
+        };
+        std::fs::write(&config.calibration, manifest.to_toml()).unwrap();
+        assert!(
+            load_geometry(&config).is_ok(),
+            "no projector configured: fine"
+        );
+        let with_projector = HardwareRigConfig {
+            projector: Some(ProjectorSource::LightCrafter {
+                id: matscan_drivers::usb::UsbId::LIGHTCRAFTER_4500,
+                settle: std::time::Duration::from_millis(50),
+            }),
+            ..config
+        };
+        let e = load_geometry(&with_projector).unwrap_err().to_string();
+        assert!(
+            e.contains("position `p0`") && e.contains("kind `projector`"),
+            "{e}"
+        );
     }
 
     #[test]

@@ -56,6 +56,9 @@ pub struct CapturePlan {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Capabilities {
     pub projector: bool,
+    /// The projector shows the plan's checkerboards exactly (a
+    /// LightCrafter's test-pattern generator shows uniform levels only).
+    pub checkers: bool,
     pub backlight: bool,
 }
 
@@ -63,8 +66,19 @@ impl Capabilities {
     /// Projector and backlight panel: every capture of the thesis.
     pub const FULL: Capabilities = Capabilities {
         projector: true,
+        checkers: true,
         backlight: true,
     };
+}
+
+/// The checkerboard photographed for `period`: full contrast, no shift.
+pub fn checker_of(period: NonZeroU32) -> Checker {
+    Checker {
+        period_px: period,
+        phase_px: [0, 0],
+        low: Level::ZERO,
+        high: Level::FULL,
+    }
 }
 
 /// The plan for `profile` on a rig with `rig`; `checker_periods` are the
@@ -113,17 +127,18 @@ pub fn plan(
         left_out.push(
             "checkerboards: this rig has no projector (subsurface cannot be estimated)".to_string(),
         );
+    } else if !rig.checkers {
+        left_out.push(
+            "checkerboards: the projector cannot show them exactly (subsurface cannot be \
+             estimated; drive it over DRM/KMS to show checkers)"
+                .to_string(),
+        );
     } else {
         let (small, large) = checker_periods;
         for period in [small, large] {
             captures.push(PlannedCapture {
                 name: format!("checker_{period}"),
-                step: Step::Checker(Checker {
-                    period_px: period,
-                    phase_px: [0, 0],
-                    low: Level::ZERO,
-                    high: Level::FULL,
-                }),
+                step: Step::Checker(checker_of(period)),
             });
         }
     }
@@ -192,6 +207,7 @@ mod tests {
     fn a_rig_without_projector_or_backlight_drops_their_photos_with_the_reason() {
         let no_projector = Capabilities {
             projector: false,
+            checkers: false,
             backlight: true,
         };
         let p = plan(&Profile::default(), periods(), no_projector);
@@ -205,6 +221,7 @@ mod tests {
         );
         let bare = Capabilities {
             projector: false,
+            checkers: false,
             backlight: false,
         };
         let p = plan(&Profile::default(), periods(), bare);
@@ -222,5 +239,24 @@ mod tests {
         assert!(p
             .left_out
             .contains(&"backlight: transmission is given".to_string()));
+    }
+
+    #[test]
+    fn a_projector_without_exact_checkers_keeps_the_uniform_photo_and_drops_the_checkers() {
+        let uniform_only = Capabilities {
+            checkers: false,
+            ..Capabilities::FULL
+        };
+        let p = plan(&Profile::default(), periods(), uniform_only);
+        assert_eq!(
+            names(&p),
+            ["ambient", "flash0", "flash1", "projector", "backlight"]
+        );
+        assert_eq!(p.left_out.len(), 1);
+        assert!(
+            p.left_out[0].starts_with("checkerboards: the projector cannot show them exactly"),
+            "{:?}",
+            p.left_out
+        );
     }
 }

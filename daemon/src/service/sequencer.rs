@@ -13,7 +13,7 @@
 //! Boundaries: knows the driver traits and the bundle writer; where the
 //! geometry and calibration come from is the caller's ([`RigGeometry`]).
 
-use super::plan::{Capabilities, CapturePlan, Step};
+use super::plan::{checker_of, Capabilities, CapturePlan, Step};
 use matscan_drivers::{
     monotonic_now, Camera, CameraSettings, DriverError, LightController, LightId, Positioner,
     Projector, ProjectorPattern, Trigger,
@@ -469,9 +469,18 @@ impl Rig {
                 .iter()
                 .all(|p| p.lights.iter().any(|l| want(&l.kind)))
         };
+        let projector = self.projector.is_some()
+            && has(|k| matches!(k, matscan_scan::LightKind::Projector { .. }));
+        let (small, large) = self.geometry.checker_periods;
+        let checkers = projector
+            && self.projector.as_ref().is_some_and(|p| {
+                [small, large]
+                    .into_iter()
+                    .all(|period| p.can_show(&ProjectorPattern::Checker(checker_of(period))))
+            });
         Capabilities {
-            projector: self.projector.is_some()
-                && has(|k| matches!(k, matscan_scan::LightKind::Projector { .. })),
+            projector,
+            checkers,
             backlight: has(|k| matches!(k, matscan_scan::LightKind::Backlight)),
         }
     }

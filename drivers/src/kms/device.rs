@@ -316,28 +316,6 @@ fn timing_of(m: &Mode) -> Timing {
     }
 }
 
-/// The kernel's `struct drm_mode_modeinfo` (uapi, stable), field for field
-/// as drm-sys 0.8 binds it.
-#[repr(C)]
-#[derive(Clone, Copy)]
-struct RawModeInfo {
-    clock: u32,
-    hdisplay: u16,
-    hsync_start: u16,
-    hsync_end: u16,
-    htotal: u16,
-    hskew: u16,
-    vdisplay: u16,
-    vsync_start: u16,
-    vsync_end: u16,
-    vtotal: u16,
-    vscan: u16,
-    vrefresh: u32,
-    flags: u32,
-    type_: u32,
-    name: [libc::c_char; 32],
-}
-
 const DRM_MODE_TYPE_USERDEF: u32 = 1 << 5;
 const DRM_MODE_FLAG_PHSYNC: u32 = 1 << 0;
 const DRM_MODE_FLAG_NHSYNC: u32 = 1 << 1;
@@ -352,7 +330,7 @@ fn drm_mode(t: &Timing) -> Mode {
     for (d, &s) in name.iter_mut().zip(text.as_bytes().iter().take(31)) {
         *d = s as libc::c_char;
     }
-    let raw = RawModeInfo {
+    let raw = drm_ffi::drm_mode_modeinfo {
         clock: t.clock_khz,
         hdisplay: t.hdisplay,
         hsync_start: t.hsync_start,
@@ -381,16 +359,7 @@ fn drm_mode(t: &Timing) -> Mode {
         type_: DRM_MODE_TYPE_USERDEF,
         name,
     };
-    // SAFETY: drm-rs builds a `Mode` only from `drm_ffi::drm_mode_modeinfo`,
-    // which this crate does not depend on directly. `Mode` is
-    // `#[repr(transparent)]` over that struct (drm 0.15 control/mod.rs),
-    // which is `#[repr(C)]` with exactly the fields of `RawModeInfo` in the
-    // same order and types (the kernel's uapi `struct drm_mode_modeinfo`,
-    // drm-sys 0.8 bindings), so the two have the same layout; every bit
-    // pattern is a valid value of it; `transmute` checks the sizes at
-    // compile time. The test `forced_mode_reads_back_through_drm_rs`
-    // checks every field through drm-rs's accessors.
-    unsafe { std::mem::transmute::<RawModeInfo, Mode>(raw) }
+    Mode::from(raw)
 }
 
 /// The CRTC to drive `conn`: the one it is on (the console's, usually),

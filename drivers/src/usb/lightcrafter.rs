@@ -600,6 +600,11 @@ impl<T: HidTransport> Projector for LightCrafter<T> {
     fn pattern(&self) -> ProjectorPattern {
         self.pattern
     }
+
+    /// Black and uniform levels; a checkerboard only when it is uniform.
+    fn can_show(&self, pattern: &ProjectorPattern) -> bool {
+        self.settings_for(*pattern).is_ok()
+    }
 }
 
 fn hex(bytes: &[u8]) -> String {
@@ -938,6 +943,11 @@ mod tests {
         }
         assert_eq!(lc.transport().sent.len(), sent, "nothing was sent");
         assert_eq!(lc.pattern(), ProjectorPattern::Black, "unchanged");
+        // The capture plan asks first, so it never plans what fails here.
+        assert!(!lc.can_show(&checker(16, 0.0, 1.0)));
+        assert!(lc.can_show(&checker(16, 1.0, 1.0)));
+        assert!(lc.can_show(&ProjectorPattern::Black));
+        assert_eq!(lc.transport().sent.len(), sent, "asking sends nothing");
         // A checker whose two levels are equal is a uniform field.
         lc.show(checker(16, 1.0, 1.0)).expect("uniform");
         let msgs = lc.transport().messages();
