@@ -1193,16 +1193,6 @@ mod tests {
             }
             Err(e) => panic!("{e}"),
         };
-        let frame = cam.capture().unwrap();
-        assert_eq!((frame.rgb.width, frame.rgb.height), cam.resolution());
-        assert!(frame
-            .rgb
-            .data
-            .iter()
-            .flatten()
-            .all(|v| v.is_finite() && *v >= 0.0));
-        cam.scene_changed(monotonic_now());
-        let next = cam.capture().unwrap();
-        assert!(next.timestamp > frame.timestamp);
+        crate::traits::assert_live_captures(&mut cam);
     }
 }

@@ -329,3 +329,21 @@ pub trait Positioner {
     /// index once the object has stopped.
     fn advance(&mut self) -> Result<usize, DriverError>;
 }
+
+/// What every live camera must do, for the device tests that run where a
+/// camera exists: a frame of its resolution with finite, non-negative
+/// values, and a later frame after a change.
+#[cfg(all(test, feature = "hardware"))]
+pub(crate) fn assert_live_captures(cam: &mut dyn Camera) {
+    let frame = cam.capture().expect("a first frame");
+    assert_eq!((frame.rgb.width, frame.rgb.height), cam.resolution());
+    assert!(frame
+        .rgb
+        .data
+        .iter()
+        .flatten()
+        .all(|v| v.is_finite() && *v >= 0.0));
+    cam.scene_changed(monotonic_now());
+    let next = cam.capture().expect("a fresh frame after a change");
+    assert!(next.timestamp > frame.timestamp);
+}

@@ -422,6 +422,22 @@ mod tests {
         assert!(e.contains("point light named `flash1`"), "{e}");
     }
 
+    /// A hardware rig's geometry and projector without any other device,
+    /// to ask what it can capture.
+    fn device_less(geometry: RigGeometry, projector: Option<Box<dyn Projector>>) -> Rig {
+        Rig {
+            camera: Box::new(NoCamera),
+            lights: Box::new(NoLights),
+            projector,
+            positioner: None,
+            trigger: None,
+            disk: None,
+            geometry,
+            truth: None,
+            mesh_source: None,
+        }
+    }
+
     /// A projector of a fixed resolution that shows uniform levels only.
     struct FixedProjector((u32, u32));
 
@@ -448,17 +464,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let config = rig_files(dir.path());
         let geometry = load_geometry(&config).unwrap();
-        let rig = Rig {
-            camera: Box::new(NoCamera),
-            lights: Box::new(NoLights),
-            projector: Some(Box::new(FixedProjector((32, 32)))),
-            positioner: None,
-            trigger: None,
-            disk: None,
-            geometry,
-            truth: None,
-            mesh_source: None,
-        };
+        let rig = device_less(geometry, Some(Box::new(FixedProjector((32, 32)))));
         let caps = rig.capabilities();
         assert!(
             caps.projector && !caps.checkers && caps.backlight,
@@ -581,17 +587,7 @@ mod tests {
             .all(|p| p.lights.iter().any(|l| l.kind == LightKind::Backlight));
         assert!(has_backlight, "the simulated rig file has a backlight");
         // The capabilities a hardware rig reports, without opening devices.
-        let rig = Rig {
-            camera: Box::new(NoCamera),
-            lights: Box::new(NoLights),
-            projector: None,
-            positioner: None,
-            trigger: None,
-            disk: None,
-            geometry,
-            truth: None,
-            mesh_source: None,
-        };
+        let rig = device_less(geometry, None);
         let caps = rig.capabilities();
         assert!(!caps.projector && caps.backlight, "{caps:?}");
     }
@@ -603,15 +599,8 @@ mod tests {
         let geometry = load_geometry(&config).unwrap();
         let first = geometry.mesh.triangle_count();
         let mut rig = Rig {
-            camera: Box::new(NoCamera),
-            lights: Box::new(NoLights),
-            projector: None,
-            positioner: None,
-            trigger: None,
-            disk: None,
-            geometry,
-            truth: None,
             mesh_source: Some(config.mesh.clone()),
+            ..device_less(geometry, None)
         };
         let other = generate(&SceneOptions {
             seed: 9,

@@ -71,6 +71,16 @@ impl UsbFootswitch {
     }
 
     fn reopen(&mut self) -> bool {
+        // A fresh context scans sysfs anew: a long-lived one learns of a
+        // replugged device only from netlink uevents, which never arrive
+        // inside systemd's PrivateNetwork namespace.
+        match device::context(self.id) {
+            Ok(context) => self.context = context,
+            Err(e) => {
+                tracing::debug!("{}: a new USB context failed: {e}", self.name);
+                return false;
+            }
+        }
         match open_pedal(&self.context, self.id) {
             Ok(Some(open)) => {
                 tracing::info!("{}: footswitch is back", self.name);
