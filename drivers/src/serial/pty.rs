@@ -120,7 +120,14 @@ impl PtyPort {
         let rc =
             unsafe { libc::ttyname_r(self.fd.as_raw_fd(), buf.as_mut_ptr().cast(), buf.len()) };
         if rc != 0 {
-            return Err(io::Error::from_raw_os_error(rc));
+            // Containers that mount a private devpts may not resolve the
+            // name; the descriptor's /proc link opens the same terminal.
+            let proc = std::path::PathBuf::from(format!("/proc/self/fd/{}", self.fd.as_raw_fd()));
+            return if proc.exists() {
+                Ok(proc)
+            } else {
+                Err(io::Error::from_raw_os_error(rc))
+            };
         }
         let len = buf.iter().position(|&b| b == 0).unwrap_or(buf.len());
         buf.truncate(len);
