@@ -150,7 +150,8 @@ pub struct BenchArgs {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Backend {
     Cpu(CpuBackend),
-    /// No GPU backend is compiled into this build; the row says so.
+    /// The Vulkan GPU (feature `vulkan`); without it, or without an
+    /// adapter, the row says why.
     Gpu,
 }
 
@@ -454,11 +455,18 @@ fn run_config(
     scratch: &Path,
 ) -> Result<Outcome> {
     let device = match config.backend {
-        Backend::Gpu => {
-            return Ok(Outcome::NotBuilt(
-                "not built (no GPU backend in this build)".to_string(),
-            ))
-        }
+        Backend::Gpu => match matscan_estimate::gpu_device() {
+            Ok((device, adapter)) => {
+                eprintln!("gpu row on {adapter}");
+                device
+            }
+            Err(matscan_estimate::GpuUnavailable::NotBuilt) => {
+                return Ok(Outcome::NotBuilt(
+                    "not built (no GPU backend in this build; --features vulkan)".to_string(),
+                ))
+            }
+            Err(unavailable) => return Ok(Outcome::NotBuilt(format!("no GPU ({unavailable})"))),
+        },
         Backend::Cpu(b) => match b.device() {
             Ok(d) => d,
             Err(missing) => return Ok(Outcome::NotBuilt(format!("not built ({missing})"))),

@@ -21,7 +21,7 @@ use matscan_estimate::plan::{parse_given, parse_param};
 use matscan_estimate::refine::RefineOptions;
 use matscan_estimate::weights::EMBEDDED;
 use matscan_estimate::{
-    cpu_device, estimate, EstimateOptions, ModelSource, ParamKind, References, Status, ViewFilter,
+    estimate, EstimateOptions, ModelSource, ParamKind, References, Status, ViewFilter,
 };
 use std::path::PathBuf;
 
@@ -61,6 +61,10 @@ pub struct EstimateArgs {
     /// pixel (0: off). Run time grows linearly with N.
     #[arg(long, value_name = "N", default_value_t = 0)]
     pub refine: u32,
+    /// Where the networks run: cpu (the build's default CPU backend), flex,
+    /// ndarray or gpu (Vulkan; needs a build with `--features vulkan`).
+    #[arg(long, default_value = "cpu")]
+    pub backend: String,
 }
 
 /// Runs `matscan estimate`.
@@ -117,7 +121,8 @@ pub fn run(args: &EstimateArgs) -> Result<()> {
         },
         ..EstimateOptions::default()
     };
-    let report = estimate(&args.scan, models, &options, &cpu_device())
+    let device = crate::backend_arg::device(&args.backend)?;
+    let report = estimate(&args.scan, models, &options, &device)
         .with_context(|| format!("estimating {}", args.scan.display()))?;
     let result = &report.result;
     for w in &result.warnings {

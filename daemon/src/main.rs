@@ -11,6 +11,7 @@
 //! for progress bars on long runs; `tracing-subscriber` for logs on stderr
 //! (`RUST_LOG` selects the level).
 
+mod backend_arg;
 mod bench_cmd;
 mod calib_cmd;
 mod chart;

@@ -12,7 +12,7 @@
 
 use anyhow::{bail, Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
-use matscan_estimate::backend::{training_device, CpuBackend};
+use matscan_estimate::backend::training_device;
 use matscan_estimate::train::{train, Event, TrainConfig};
 use matscan_estimate::ParamKind;
 use std::path::PathBuf;
@@ -35,7 +35,8 @@ pub struct TrainArgs {
     /// Feature width (default: the shipped width of the network).
     #[arg(long)]
     pub width: Option<usize>,
-    /// CPU backend: cpu (the default backend), flex or ndarray.
+    /// Where to train: cpu (the build's default CPU backend), flex,
+    /// ndarray or gpu (Vulkan; needs a build with `--features vulkan`).
     #[arg(long, default_value = "cpu")]
     pub backend: String,
     /// Folder of test bundles for the test loss.
@@ -69,12 +70,7 @@ pub fn run(args: &TrainArgs) -> Result<()> {
             args.param
         );
     };
-    let device = match args.backend.as_str() {
-        "cpu" => matscan_estimate::cpu_device(),
-        "flex" => CpuBackend::Flex.device()?,
-        "ndarray" => CpuBackend::NdArray.device()?,
-        other => bail!("--backend {other}: expected cpu, flex or ndarray"),
-    };
+    let device = crate::backend_arg::device(&args.backend)?;
     let device = training_device(device);
     let mut config = TrainConfig::new(kind, args.data.clone(), args.out.clone());
     config.test = args.test.clone();

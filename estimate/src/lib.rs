@@ -31,6 +31,7 @@
 pub mod backend;
 pub mod blocks;
 pub mod fusion;
+pub mod gpu;
 pub mod inputs;
 pub mod metrics;
 pub mod models;
@@ -47,6 +48,7 @@ pub mod views;
 pub mod weights;
 
 pub use backend::{cpu_device, CpuBackend};
+pub use gpu::{gpu_device, gpu_is_built, GpuAdapter, GpuUnavailable};
 pub use models::{ModelSource, Models, ModelsError};
 pub use network::{ConfigError, InputError, NetConfig, NetOutput, ParamNet};
 pub use output::{ResultFile, Status};

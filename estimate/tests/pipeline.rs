@@ -461,3 +461,46 @@ fn a_given_map_of_the_wrong_size_is_refused() {
     let text = err.to_string();
     assert!(text.contains("rough.exr") && text.contains("5x5"), "{text}");
 }
+
+/// The GPU backend runs the same networks: its maps equal the CPU's up to
+/// float summation order. Runs where a Vulkan adapter exists (a GPU, or
+/// Mesa's lavapipe on the CPU); says why it skipped elsewhere.
+#[cfg(feature = "vulkan")]
+#[test]
+fn the_gpu_backend_writes_the_maps_the_cpu_writes() {
+    let (device, adapter) = match matscan_estimate::gpu_device() {
+        Ok(found) => found,
+        Err(e) => {
+            eprintln!("skipped: {e}");
+            return;
+        }
+    };
+    eprintln!("GPU adapter: {adapter}");
+    let dir = tempfile::tempdir().unwrap();
+    let scan = scan_copy(dir.path());
+    let out = |name: &str| EstimateOptions {
+        out: Some(dir.path().join(name)),
+        ..EstimateOptions::default()
+    };
+    let cpu = estimate(&scan, weights(), &out("cpu"), &cpu_device()).unwrap();
+    let gpu = estimate(&scan, weights(), &out("gpu"), &device).unwrap();
+    assert_eq!(cpu.result.positions, gpu.result.positions);
+    let position = &cpu.result.positions[0];
+    let mut compared = 0;
+    for kind in ParamKind::ALL {
+        let file = format!("{position}/{}.exr", kind.name());
+        let a = read_scalar_exr(&cpu.out.join(&file)).unwrap();
+        let b = read_scalar_exr(&gpu.out.join(&file)).unwrap();
+        assert_eq!((a.width, a.height), (b.width, b.height), "{file}");
+        let worst = a
+            .data
+            .iter()
+            .zip(&b.data)
+            .map(|(x, y)| (x - y).abs())
+            .fold(0.0f32, f32::max);
+        eprintln!("{file}: largest CPU/GPU difference {worst:.2e}");
+        assert!(worst < 1e-3, "{file}: largest difference {worst}");
+        compared += 1;
+    }
+    assert_eq!(compared, ParamKind::ALL.len());
+}
