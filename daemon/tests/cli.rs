@@ -240,3 +240,36 @@ fn train_writes_weights_a_loss_history_and_a_plot() {
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("--param sheen"));
 }
+
+#[test]
+fn estimate_on_a_gpu_it_cannot_use_says_what_is_missing() {
+    let mut cmd = std::process::Command::new(env!("CARGO_BIN_EXE_matscan"));
+    // A loader that finds no driver: the adapter check must turn that
+    // into an error, not a panic in burn's worker thread.
+    cmd.env("VK_DRIVER_FILES", "/nonexistent/icd.json")
+        .env("VK_ICD_FILENAMES", "/nonexistent/icd.json")
+        .args(["estimate", "/nonexistent-scan", "--backend", "gpu"]);
+    let out = cmd.output().expect("run matscan");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    if cfg!(feature = "vulkan") {
+        assert!(
+            err.contains("no Vulkan adapter") || err.contains("no Vulkan loader"),
+            "{err}"
+        );
+        assert!(
+            err.contains("VK_DRIVER_FILES") || err.contains("libvulkan1"),
+            "{err}"
+        );
+    } else {
+        assert!(err.contains("--features vulkan"), "{err}");
+    }
+    let out = matscan(&["estimate", "/nonexistent-scan", "--backend", "tpu"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        err.contains("--backend tpu") && err.contains("gpu"),
+        "{err}"
+    );
+}
