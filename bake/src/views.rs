@@ -95,32 +95,25 @@ impl View {
             let Some(slot) = slots.iter().position(|&p| p == map.param()) else {
                 continue;
             };
+            let (w, h, len) = match map.values() {
+                MapValues::Rgb(r) => (r.width, r.height, r.data.len()),
+                MapValues::Scalar(r) => (r.width, r.height, r.data.len()),
+            };
+            check_size(
+                &input.position,
+                map.param().name(),
+                w,
+                h,
+                len,
+                width,
+                height,
+            )?;
             let values = match map.values() {
-                MapValues::Rgb(r) => {
-                    check_size(
-                        &input.position,
-                        map.param().name(),
-                        r.width,
-                        r.height,
-                        r.data.len(),
-                        width,
-                        height,
-                    )?;
-                    Plane {
-                        channels: 3,
-                        data: r.data.iter().flatten().map(|&v| finite(v)).collect(),
-                    }
-                }
+                MapValues::Rgb(r) => Plane {
+                    channels: 3,
+                    data: r.data.iter().flatten().map(|&v| finite(v)).collect(),
+                },
                 MapValues::Scalar(r) => {
-                    check_size(
-                        &input.position,
-                        map.param().name(),
-                        r.width,
-                        r.height,
-                        r.data.len(),
-                        width,
-                        height,
-                    )?;
                     let mut p = scalar_plane(r);
                     p.data.iter_mut().for_each(|v| *v = finite(*v));
                     p
