@@ -324,12 +324,16 @@ pub fn format_status(s: &Value) -> String {
         text(&s["rig"]),
         text(&s["state"])
     );
+    if let Some(f) = s["footswitch"].as_str() {
+        out += &format!("pedal:  {f}\n");
+    }
     if let Some(c) = s["current"].as_object() {
         let p = &c["progress"];
         out += &format!(
-            "now:    job {} (profile {}) {}\n",
+            "now:    job {} (profile {}, from the {}) {}\n",
             c["job"],
             text(&c["profile"]),
+            text(&c["source"]),
             if p.is_null() {
                 "starting".to_string()
             } else {

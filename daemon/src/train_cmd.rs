@@ -14,6 +14,7 @@ use anyhow::{bail, Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use matscan_estimate::backend::training_device;
 use matscan_estimate::train::{train, Event, TrainConfig};
+use matscan_estimate::weights::WeightSource;
 use matscan_estimate::ParamKind;
 use std::path::PathBuf;
 
@@ -60,6 +61,24 @@ pub struct TrainArgs {
     /// Stop after this many minutes of training (weights are still written).
     #[arg(long)]
     pub max_minutes: Option<f64>,
+    /// Start a fresh run from these weights instead of random ones: a
+    /// weight file, or `embedded` for the network built into this binary
+    /// (fine-tuning). Ignored when resuming from a checkpoint in --out.
+    #[arg(long)]
+    pub init: Option<String>,
+    /// Adam's learning rate (the thesis's 1e-3).
+    #[arg(long, default_value_t = matscan_estimate::train::LEARNING_RATE)]
+    pub lr: f64,
+    /// Decay the learning rate by a cosine from --lr to this at the last
+    /// step (default: constant, as the thesis).
+    #[arg(long)]
+    pub final_lr: Option<f64>,
+    /// Steps of the stems-only phase (default 5 % of --steps).
+    #[arg(long)]
+    pub stems_steps: Option<usize>,
+    /// Steps of the single-view phase (default 20 % of --steps).
+    #[arg(long)]
+    pub single_steps: Option<usize>,
 }
 
 /// Runs `matscan train`.
@@ -82,6 +101,21 @@ pub fn run(args: &TrainArgs) -> Result<()> {
     config.checkpoint_every = args.checkpoint_every;
     config.log_every = args.log_every;
     config.max_seconds = args.max_minutes.map(|m| m * 60.0);
+    config.learning_rate = args.lr;
+    config.final_learning_rate = args.final_lr;
+    config.stems_steps = args.stems_steps;
+    config.single_steps = args.single_steps;
+    config.init = args.init.as_deref().map(|init| match init {
+        "embedded" => WeightSource::Embedded,
+        path => WeightSource::File(PathBuf::from(path)),
+    });
+    for (name, rate) in [("--lr", Some(args.lr)), ("--final-lr", args.final_lr)] {
+        if let Some(rate) = rate {
+            if !(rate.is_finite() && rate > 0.0) {
+                bail!("{name} {rate}: expected a positive learning rate");
+            }
+        }
+    }
 
     let bar = ProgressBar::new(0);
     bar.set_style(
@@ -91,13 +125,22 @@ pub fn run(args: &TrainArgs) -> Result<()> {
         .context("progress bar template")?,
     );
     bar.set_prefix("loading");
+    // indicatif drops `println` when the bar is hidden (stderr not a
+    // terminal: nohup, a service, a pipe); the log lines still matter there.
+    let say = |bar: &ProgressBar, line: String| {
+        if bar.is_hidden() {
+            eprintln!("{line}");
+        } else {
+            bar.println(line);
+        }
+    };
     let summary = train(&config, &device, &mut |event| match event {
         Event::Loading { done, total } => {
             bar.set_length(total as u64);
             bar.set_position(done as u64);
         }
         Event::Skipped { path, reason } => {
-            bar.println(format!("skipped {}: {reason}", path.display()));
+            say(&bar, format!("skipped {}: {reason}", path.display()));
         }
         Event::Start {
             step,
@@ -108,7 +151,9 @@ pub fn run(args: &TrainArgs) -> Result<()> {
             bar.set_prefix(kind.name());
             bar.set_length(steps as u64);
             bar.set_position(step as u64);
-            bar.println(format!(
+            say(
+                &bar,
+                format!(
                 "training {kind} from step {step}: {scenes} training scenes, {test_scenes} test scenes"
             ));
         }
@@ -118,7 +163,7 @@ pub fn run(args: &TrainArgs) -> Result<()> {
         }
         Event::Logged(row) => {
             let test = row.test.map(|t| format!(", test {t:.5}")).unwrap_or_default();
-            bar.println(format!("step {}: train {:.5}{test}", row.step, row.train));
+            say(&bar, format!("step {}: train {:.5}{test}", row.step, row.train));
         }
         Event::Checkpoint(_) => {}
     })

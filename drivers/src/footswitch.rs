@@ -119,6 +119,10 @@ impl Trigger for EvdevFootswitch {
             if n == 0 {
                 return Ok(None);
             }
+            if n < 0 && std::io::Error::last_os_error().kind() == std::io::ErrorKind::Interrupted {
+                // A signal (SIGTERM on stop) is no unplug: poll again.
+                continue;
+            }
             let mut buf = [0u8; 24 * 16];
             match (n > 0).then(|| file.read(&mut buf)) {
                 Some(Ok(r)) if r > 0 => {

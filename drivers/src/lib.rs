@@ -18,6 +18,8 @@
 //!   footswitches (codecs always; libusb behind `hardware`);
 //! - [`footswitch`]: USB footswitches read through evdev with an exclusive
 //!   grab (only `libc`, so it builds without `hardware`);
+//! - [`pipe_trigger`]: presses as lines written to a named pipe (the
+//!   simulated rig's pedal; pedals read by another program);
 //! - `sim_rig` (feature `simulated-hardware`): the same traits backed by
 //!   the renderer and a scene, with fault injection.
 //!
@@ -35,6 +37,7 @@ pub mod footswitch;
 pub mod kms;
 #[cfg(feature = "hardware")]
 pub mod nokhwa_camera;
+pub mod pipe_trigger;
 pub mod serial;
 #[cfg(feature = "simulated-hardware")]
 pub mod sim_rig;

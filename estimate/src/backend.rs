@@ -22,7 +22,7 @@ pub enum CpuBackend {
 
 /// The backend was not compiled into this build.
 #[derive(Debug, thiserror::Error)]
-#[error("the {backend} backend is not built in; rebuild matscan-estimate with feature `{feature}`")]
+#[error("the {backend} backend is not built in; rebuild with feature `{feature}` (`cargo build --release -p matscan --features {feature}`)")]
 pub struct BackendMissing {
     backend: CpuBackend,
     feature: &'static str,

@@ -47,7 +47,12 @@ pub enum ConfigError {
 pub struct Config {
     pub rig: RigChoice,
     pub socket: PathBuf,
+    /// The group the control socket is given (mode 0660: its members may
+    /// capture); `None`: the daemon's own group.
+    pub socket_group: Option<String>,
     pub scans: PathBuf,
+    /// What a capture request (socket or footswitch) does while another
+    /// capture runs.
     pub busy: BusyPolicy,
     pub profiles: BTreeMap<String, Profile>,
     /// The profile of a capture request that names none.
@@ -129,6 +134,9 @@ pub enum FootswitchSource {
     /// Raw USB (`usb:VVVV:PPPP`): the kernel's keyboard driver is
     /// detached, so the pedal never types anywhere.
     Usb(UsbId),
+    /// A named pipe (`pipe:PATH`): each line another program writes is a
+    /// press (a pedal on a GPIO, a vendor tool).
+    Pipe(PathBuf),
 }
 
 /// The pattern projector.
@@ -165,6 +173,7 @@ impl std::fmt::Display for FootswitchSource {
         match self {
             FootswitchSource::Evdev(path) => write!(f, "{path}"),
             FootswitchSource::Usb(id) => write!(f, "usb:{:04x}:{:04x}", id.vendor, id.product),
+            FootswitchSource::Pipe(path) => write!(f, "pipe:{}", path.display()),
         }
     }
 }
@@ -188,6 +197,15 @@ impl std::fmt::Display for ProjectorSource {
 }
 
 impl RigChoice {
+    /// Whether the rig has a footswitch that can start captures (the
+    /// idle daemon then keeps the rig open to listen to it).
+    pub fn has_footswitch(&self) -> bool {
+        match self {
+            RigChoice::Hardware(_) => true,
+            RigChoice::Simulated(s) => s.footswitch.is_some(),
+        }
+    }
+
     pub fn describe(&self) -> String {
         match self {
             RigChoice::Hardware(h) => format!(
@@ -203,7 +221,7 @@ impl RigChoice {
                 h.mesh.display()
             ),
             RigChoice::Simulated(s) => format!(
-                "simulated ({} scene, {} on {}, {} positions, {}x{} px, {})",
+                "simulated ({} scene, {} on {}, {} positions, {}x{} px, seed {}{})",
                 s.kind,
                 s.geometry
                     .map_or("random geometry".to_string(), |g| g.to_string()),
@@ -215,7 +233,11 @@ impl RigChoice {
                 s.positions,
                 s.size,
                 s.size,
-                format_args!("seed {}", s.seed),
+                s.seed,
+                s.footswitch.as_ref().map_or_else(String::new, |p| format!(
+                    ", footswitch pipe:{}",
+                    p.display()
+                )),
             ),
         }
     }
@@ -235,6 +257,10 @@ pub struct SimulatedRigConfig {
     /// With a turntable the sequencer turns the object; without one it
     /// waits for the operator's footswitch press between positions.
     pub turntable: bool,
+    /// The simulated pedal: a named pipe where each line written is a
+    /// press (`echo > PATH`), starting a capture when idle and moving on
+    /// between positions. `None`: nobody presses it.
+    pub footswitch: Option<PathBuf>,
     pub faults: FaultConfig,
 }
 
@@ -291,6 +317,7 @@ impl Default for CaptureSettings {
 struct RawConfig {
     rig: String,
     socket: Option<PathBuf>,
+    socket_group: Option<String>,
     scans: Option<PathBuf>,
     #[serde(default)]
     busy: Option<String>,
@@ -360,6 +387,7 @@ struct RawSimulated {
     positions: Option<usize>,
     samples: Option<u32>,
     turntable: Option<bool>,
+    footswitch: Option<PathBuf>,
     #[serde(default)]
     faults: RawFaults,
 }
@@ -506,6 +534,12 @@ impl Config {
             rig,
             estimate,
             socket: raw.socket.unwrap_or_else(|| PathBuf::from(DEFAULT_SOCKET)),
+            socket_group: match raw.socket_group {
+                Some(g) if g.trim().is_empty() || g.contains('\0') => {
+                    return Err(invalid("socket_group", "expected a group name".into()))
+                }
+                other => other,
+            },
             scans: raw.scans.unwrap_or_else(|| PathBuf::from(DEFAULT_SCANS)),
             busy,
             profiles,
@@ -547,14 +581,24 @@ fn hardware(
     let footswitch = required(
         raw.footswitch,
         "footswitch",
-        "the footswitch's evdev node or `usb:VVVV:PPPP`",
+        "the footswitch's evdev node, `usb:VVVV:PPPP` or `pipe:PATH`",
     )?;
-    let footswitch = match footswitch.strip_prefix("usb:") {
-        Some(id) => FootswitchSource::Usb(
+    let footswitch = if let Some(id) = footswitch.strip_prefix("usb:") {
+        FootswitchSource::Usb(
             id.parse::<UsbId>()
                 .map_err(|e| invalid("hardware.footswitch", e.to_string()))?,
-        ),
-        None => FootswitchSource::Evdev(footswitch),
+        )
+    } else if footswitch.starts_with("pipe:") {
+        FootswitchSource::Pipe(
+            matscan_drivers::pipe_trigger::pipe_path(&footswitch).ok_or_else(|| {
+                invalid(
+                    "hardware.footswitch",
+                    "`pipe:` needs the named pipe's path: `pipe:/run/matscan/pedal`".into(),
+                )
+            })?,
+        )
+    } else {
+        FootswitchSource::Evdev(footswitch)
     };
     let [fine, coarse] = raw.checker_periods.unwrap_or([8, 32]);
     let checker_periods = match (NonZeroU32::new(fine), NonZeroU32::new(coarse)) {
@@ -763,6 +807,15 @@ fn simulated(
         positions,
         samples,
         turntable: raw.turntable.unwrap_or(true),
+        footswitch: match raw.footswitch {
+            Some(p) if p.as_os_str().is_empty() => {
+                return Err(invalid(
+                    "simulated.footswitch",
+                    "expected the path of a named pipe".into(),
+                ))
+            }
+            other => other,
+        },
         faults: FaultConfig {
             camera_lost_after: raw.faults.camera_lost_after,
             lights_silent_after: raw.faults.lights_silent_after,

@@ -1,6 +1,7 @@
 //! `rig = "hardware"`: the real drivers behind the sequencer's traits — a
-//! V4L2 camera, the serial light controller (two flashes and the backlight
-//! panel), an evdev footswitch — and the rig's geometry from files the
+//! V4L2 or nokhwa camera, the serial light controller (two flashes and the
+//! backlight panel), the footswitch (evdev, raw USB or a named pipe), the
+//! projector (DRM/KMS or a LightCrafter, optional) — and the rig's geometry from files the
 //! scanner PC keeps: a rig calibration file and the object's mesh as the
 //! 3D scanner's software exports it.
 //!
@@ -16,12 +17,13 @@
 //! `mesh_source`), since the scanner software writes each new object's mesh
 //! to the same path before the operator presses the footswitch.
 //!
-//! No projector driver exists yet (DRM/KMS and the LightCrafter are open
-//! work), so the hardware rig has none: its capture plan leaves out the
-//! projector photos with that reason, and the estimator skips subsurface
-//! (no checker capture). The V4L2 camera needs the `hardware` feature
-//! (libclang at build time); a build without it says so when the rig is
-//! opened, and the daemon keeps serving.
+//! A rig without a projector (`projector` unset) gets a capture plan
+//! without projector photos, with that reason, and the estimator skips
+//! subsurface (no checker capture). The cameras, the projectors and the
+//! raw USB footswitch need the `hardware` feature (libclang at build
+//! time); a build without it says so when the rig is opened, and the
+//! daemon keeps serving. The serial lights and the evdev and named-pipe
+//! footswitches build everywhere.
 //!
 //! Boundaries: opens devices and reads files; takes no photo.
 
@@ -288,6 +290,9 @@ fn open_footswitch(
         )?)),
         #[cfg(not(feature = "hardware"))]
         FootswitchSource::Usb(_) => Err(not_built(source.to_string(), "raw USB support")),
+        FootswitchSource::Pipe(path) => Ok(Box::new(
+            matscan_drivers::pipe_trigger::PipeTrigger::open(path)?,
+        )),
     }
 }
 
@@ -704,9 +709,7 @@ mod tests {
             Box::new(master),
         )
         .unwrap();
-        // The operator has already turned the object when the sequencer
-        // asks for position p1.
-        bench.footswitch.press();
+        let button = bench.footswitch.clone();
         let board = bench.board;
         let mut rig = open_with(
             &config,
@@ -727,9 +730,16 @@ mod tests {
             min_light_difference: 1e-3,
             operator_timeout: Duration::from_secs(20),
         };
-        let outcome = rig
-            .capture(&plan, "", &target, &settings, &|| false, &mut |_| {})
-            .unwrap();
+        // The operator presses at p1 (the object stays put: one scene).
+        let outcome = crate::service::sequencer::capture_with_operator(
+            &mut rig,
+            &plan,
+            &target,
+            &settings,
+            button,
+            || {},
+        )
+        .unwrap();
         assert_eq!(outcome.positions, 2);
         assert_eq!(outcome.photos, 2 * plan.captures.len());
         assert_eq!(outcome.retries, 0, "every flash fired the first time");

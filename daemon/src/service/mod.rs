@@ -7,18 +7,23 @@
 //! - [`rig`]: opens the configured rig (simulated, or [`hardware`]: V4L2
 //!   camera, serial lights, evdev footswitch, rig calibration file and the
 //!   scanner's mesh export);
-//! - [`server`]: the daemon's life (socket, capture thread, stop);
+//! - [`server`]: the daemon's life (socket, capture thread listening to
+//!   the footswitch while idle, stop);
 //! - [`socket`]: the control protocol (`docs/daemon-protocol.md`);
+//! - [`request`]: a capture request from the socket or the footswitch,
+//!   queued or refused by the busy policy;
 //! - [`state`]: the queue and the jobs, shared between threads;
-//! - [`worker`]: the estimation worker (a calibration check for now);
+//! - [`worker`]: the estimation worker (calibration check, then
+//!   `matscan_estimate::estimate` into the scan's `estimate/`);
 //! - [`notify`]: systemd notification.
 //!
-//! Boundaries: no estimation here; the worker is where it plugs in.
+//! Boundaries: the estimator is called only from the worker.
 
 pub mod config;
 pub mod hardware;
 pub mod notify;
 pub mod plan;
+pub mod request;
 pub mod rig;
 pub mod sequencer;
 pub mod server;

@@ -57,17 +57,24 @@ fn open_simulated(c: &SimulatedRigConfig) -> Result<Rig, DriverError> {
         ..SimConfig::default()
     };
     let rig = SimulatedRig::new(scene, config)?;
-    let (positioner, trigger): (Option<Box<dyn matscan_drivers::Positioner>>, _) = if c.turntable {
-        (Some(Box::new(rig.positioner)), None)
+    let positioner: Option<Box<dyn matscan_drivers::Positioner>> = if c.turntable {
+        Some(Box::new(rig.positioner))
     } else {
+        None
+    };
+    let trigger: Option<Box<dyn matscan_drivers::Trigger>> = match &c.footswitch {
+        // The pedal as a named pipe: a test or a demo presses it.
+        Some(pipe) => Some(Box::new(matscan_drivers::pipe_trigger::PipeTrigger::open(
+            pipe,
+        )?)),
         // Nobody turns the simulated object without a turntable, and
         // nothing presses its footswitch: the sequencer waits for the
         // press and times out with a clear error.
-        let trigger: Box<dyn matscan_drivers::Trigger> = Box::new(UnpressedFootswitch {
+        None if !c.turntable => Some(Box::new(UnpressedFootswitch {
             trigger: rig.trigger,
             _button: rig.footswitch,
-        });
-        (None, Some(trigger))
+        })),
+        None => None,
     };
     Ok(Rig {
         camera: Box::new(rig.camera),

@@ -143,6 +143,10 @@ pub struct CaptureOutcome {
     pub retries: u32,
     pub left_out: Vec<String>,
     pub seconds: f64,
+    /// Footswitch presses made while photos were being taken (not counted
+    /// as "the object is in place"): the caller decides whether they ask
+    /// for another capture.
+    pub presses_during: usize,
 }
 
 /// Knobs of one capture run.
@@ -151,6 +155,17 @@ pub struct RunSettings {
     pub light_retries: u32,
     pub min_light_difference: f32,
     pub operator_timeout: Duration,
+}
+
+/// Reads every press `trigger` already holds (short polls, at most 64) and
+/// returns how many there were.
+pub fn drain_presses(trigger: &mut dyn Trigger) -> usize {
+    let mut n = 0;
+    // 1 ms, not zero: some triggers read a zero timeout as "forever".
+    while n < 64 && matches!(trigger.wait(Duration::from_millis(1)), Ok(Some(_))) {
+        n += 1;
+    }
+    n
 }
 
 /// The name of the side file recording the profile of a capture.
@@ -207,10 +222,11 @@ impl Rig {
         let total = count * plan.captures.len();
         let mut positions = Vec::with_capacity(count);
         let mut retries = 0;
+        let mut presses_during = 0;
         for index in 0..count {
             let geometry = self.geometry.positions[index].clone();
             if index > 0 {
-                self.next_position(&geometry.name, settings, stop)?;
+                presses_during += self.next_position(&geometry.name, settings, stop)?;
             }
             let exposure =
                 CameraSettings::new(geometry.exposure_s, 1.0, 5000).ok_or_else(|| {
@@ -286,6 +302,7 @@ impl Rig {
             retries,
             left_out: plan.left_out.clone(),
             seconds: start.elapsed().as_secs_f64(),
+            presses_during,
         })
     }
 
@@ -302,24 +319,38 @@ impl Rig {
         Ok(())
     }
 
+    /// Moves to the next position: turns the positioner, or waits for the
+    /// operator's press. Presses already waiting when the wait begins were
+    /// made while photos were being taken, before the operator could have
+    /// moved the object: they do not count (else the next position's photos
+    /// would catch the object in motion) and are returned as a count. An
+    /// unplugged footswitch is waited for until the operator timeout.
     fn next_position(
         &mut self,
         name: &str,
         settings: &RunSettings,
         stop: &dyn Fn() -> bool,
-    ) -> Result<(), CaptureError> {
+    ) -> Result<usize, CaptureError> {
         if let Some(p) = self.positioner.as_mut() {
             p.advance()?;
             self.camera.scene_changed(monotonic_now());
-            return Ok(());
+            return Ok(0);
         }
         let Some(trigger) = self.trigger.as_mut() else {
             return Err(CaptureError::CannotMove {
                 positions: self.geometry.positions.len(),
             });
         };
+        let early = drain_presses(trigger.as_mut());
+        if early > 0 {
+            tracing::info!(
+                "{}: {early} press(es) during the photos ignored: press again once the object is at {name}",
+                trigger.id()
+            );
+        }
         tracing::info!("waiting for the operator to move the object to {name} and press");
         let deadline = Instant::now() + settings.operator_timeout;
+        let mut unplugged: Option<DriverError> = None;
         // Short waits so that a stop request is heard while the operator
         // takes their time.
         loop {
@@ -328,18 +359,33 @@ impl Rig {
             }
             let left = deadline.saturating_duration_since(Instant::now());
             if left.is_zero() {
+                if let Some(DriverError::Disconnected { device, .. }) = unplugged {
+                    return Err(CaptureError::Driver(DriverError::Disconnected {
+                        device,
+                        waited: settings.operator_timeout,
+                    }));
+                }
                 return Err(CaptureError::OperatorTimeout {
                     device: trigger.id().to_string(),
                     position: name.to_string(),
                     waited: settings.operator_timeout,
                 });
             }
-            if trigger
-                .wait(left.min(Duration::from_millis(200)))?
-                .is_some()
-            {
-                self.camera.scene_changed(monotonic_now());
-                return Ok(());
+            match trigger.wait(left.min(Duration::from_millis(200))) {
+                Ok(Some(_)) => {
+                    self.camera.scene_changed(monotonic_now());
+                    return Ok(early);
+                }
+                Ok(None) => unplugged = None,
+                Err(e @ DriverError::Disconnected { .. }) => {
+                    if unplugged.is_none() {
+                        tracing::warn!("{e}; waiting for it to come back");
+                    }
+                    unplugged = Some(e);
+                    // A trigger that fails at once must not spin.
+                    std::thread::sleep(left.min(Duration::from_millis(200)));
+                }
+                Err(e) => return Err(e.into()),
             }
         }
     }
@@ -564,3 +610,47 @@ pub fn mean_abs_difference(a: &RgbRaster, b: &RgbRaster) -> f32 {
 
 #[cfg(test)]
 mod tests;
+
+/// A test's operator at a rig without turntable: once the first
+/// position's photos are taken, turns the object (`turn`), then presses
+/// `button` every 50 ms until the capture ends. Presses that land before
+/// the sequencer waits are ignored by it, as they must be; the first one
+/// after moves it on.
+#[cfg(test)]
+pub(crate) fn capture_with_operator(
+    rig: &mut Rig,
+    plan: &CapturePlan,
+    target: &Path,
+    settings: &RunSettings,
+    button: matscan_drivers::sim_rig::FootswitchButton,
+    turn: impl FnOnce() + Send + 'static,
+) -> Result<CaptureOutcome, CaptureError> {
+    use std::sync::atomic::{AtomicBool, Ordering};
+    use std::sync::Arc;
+    let per_position = plan.captures.len();
+    let first_done = Arc::new(AtomicBool::new(false));
+    let finished = Arc::new(AtomicBool::new(false));
+    let operator = {
+        let (first_done, finished) = (first_done.clone(), finished.clone());
+        std::thread::spawn(move || {
+            let mut turn = Some(turn);
+            while !finished.load(Ordering::SeqCst) {
+                if first_done.load(Ordering::SeqCst) {
+                    if let Some(t) = turn.take() {
+                        t();
+                    }
+                    button.press();
+                }
+                std::thread::sleep(Duration::from_millis(50));
+            }
+        })
+    };
+    let out = rig.capture(plan, "", target, settings, &|| false, &mut |p| {
+        if p.done == per_position {
+            first_done.store(true, Ordering::SeqCst);
+        }
+    });
+    finished.store(true, Ordering::SeqCst);
+    operator.join().expect("the operator thread");
+    out
+}

@@ -9,9 +9,11 @@
 use super::config::Config;
 use super::notify::Notifier;
 use super::plan::plan;
+use super::request::{request_capture, Source};
 use super::sequencer::{CaptureError, Progress, Rig, RunSettings};
 use super::state::{JobStage, Shared};
 use super::worker::{EstimateOutcome, Job, Processed, Worker};
+use matscan_drivers::Press;
 use serde_json::json;
 use std::os::unix::fs::PermissionsExt;
 use std::os::unix::net::{UnixListener, UnixStream};
@@ -186,67 +188,87 @@ fn spawn_connection(stream: UnixStream, shared: &Arc<Shared>, config: &Arc<Confi
     }
 }
 
+/// How long the idle capture thread listens to the footswitch before it
+/// looks at the queue again.
+const IDLE_SLICE: Duration = Duration::from_millis(200);
+/// How often an idle daemon retries opening a rig that would not open.
+const REOPEN_EVERY: Duration = Duration::from_secs(10);
+/// Presses closer than this to the last one that counted are the same
+/// press (a bouncing contact, a double tap).
+pub const DEBOUNCE: Duration = Duration::from_millis(300);
+
+/// What the idle capture thread does next.
+enum Next {
+    Job(u64),
+    Idle,
+    Stop,
+}
+
+/// The rig as the capture thread holds it between jobs.
+struct RigSlot {
+    rig: Option<Rig>,
+    /// When opening it last failed (retried after [`REOPEN_EVERY`]).
+    failed_at: Option<Instant>,
+    /// The timestamp of the last press that counted.
+    last_press: Option<Duration>,
+    /// The last footswitch error, reported once until it changes.
+    trigger_error: Option<String>,
+}
+
+/// Whether `press` counts (is not a bounce of the one at `last`); if it
+/// does, it becomes `last`.
+fn debounced(last: &mut Option<Duration>, press: Press) -> bool {
+    let counts = last.is_none_or(|l| press.timestamp.saturating_sub(l) >= DEBOUNCE);
+    if counts {
+        *last = Some(press.timestamp);
+    }
+    counts
+}
+
 /// Runs queued captures one at a time until the daemon stops, handing each
-/// published scan to `worker`.
+/// published scan to `worker`. While idle, a rig with a footswitch is kept
+/// open and its presses queue captures of the default profile, by the same
+/// busy policy as socket requests; presses made during a capture ask for
+/// one more capture at most, which that policy queues or refuses.
 fn capture_loop(config: &Config, shared: &Shared, worker: Worker) {
-    let mut rig: Option<Rig> = None;
+    let mut slot = RigSlot {
+        rig: None,
+        failed_at: None,
+        last_press: None,
+        trigger_error: None,
+    };
     loop {
-        let id = {
+        let next = {
             let mut s = shared.lock();
-            loop {
-                if s.stopping {
-                    break None;
-                }
-                if let Some(id) = s.queue.pop_front() {
-                    s.current = Some(id);
-                    break Some(id);
-                }
-                shared.beat();
-                s = shared.wait(s, Duration::from_millis(500));
+            if s.stopping {
+                Next::Stop
+            } else if let Some(id) = s.queue.pop_front() {
+                s.current = Some(id);
+                Next::Job(id)
+            } else {
+                Next::Idle
             }
         };
-        let Some(id) = id else { break };
-        shared.changed.notify_all();
-        let result = run_job(config, shared, &mut rig, id);
-        shared.update(|s| {
-            s.current = None;
-            match result {
-                Ok((scan, summary)) => {
-                    tracing::info!("job {id}: scan published at {}", scan.display());
-                    s.event(
-                        id,
-                        json!({"event": "done", "job": id, "scan": scan, "summary": summary}),
-                    );
-                    s.set_stage(
-                        id,
-                        JobStage::Captured {
-                            scan: scan.clone(),
-                            summary,
-                        },
-                    );
-                    let given = s
-                        .jobs
-                        .get(&id)
-                        .and_then(|j| config.profiles.get(&j.profile))
-                        .map(|p| p.given.iter().copied().collect())
-                        .unwrap_or_default();
-                    if !worker.submit(Job { id, scan, given }) {
-                        tracing::error!("job {id}: the estimation worker is gone");
-                    }
+        match next {
+            Next::Stop => break,
+            Next::Job(id) => {
+                shared.changed.notify_all();
+                let result = run_job(config, shared, &mut slot.rig, id);
+                let mut during = match &result {
+                    Ok((_, _, presses)) => *presses,
+                    Err(_) => 0,
+                };
+                if let Some(t) = slot.rig.as_mut().and_then(|r| r.trigger.as_mut()) {
+                    during += super::sequencer::drain_presses(t.as_mut());
                 }
-                Err(error) => {
-                    tracing::error!("job {id}: capture failed: {error}");
-                    s.event(id, json!({"event": "failed", "job": id, "error": error}));
-                    s.set_stage(
-                        id,
-                        JobStage::Failed {
-                            error: error.clone(),
-                        },
-                    );
-                    s.last_error = Some(format!("job {id}: {error}"));
+                finish_job(config, shared, &worker, id, result);
+                if during > 0 {
+                    tracing::info!("the footswitch was pressed {during} time(s) during job {id}");
+                    request_capture(shared, config, None, Source::FootswitchDuringCapture);
                 }
             }
-        });
+            Next::Idle => idle(config, shared, &mut slot),
+        }
     }
     // Dropped jobs fail visibly rather than vanish.
     shared.update(|s| {
@@ -260,14 +282,122 @@ fn capture_loop(config: &Config, shared: &Shared, worker: Worker) {
     worker.finish();
 }
 
-/// Opens the rig if needed and carries out job `id`; returns the scan and
-/// its summary, or the error as the operator should read it.
+/// One idle slice: listens to the footswitch (opening the rig for it when
+/// it has one), or waits for a request.
+fn idle(config: &Config, shared: &Shared, slot: &mut RigSlot) {
+    shared.beat();
+    let reopen_due = slot.failed_at.is_none_or(|t| t.elapsed() >= REOPEN_EVERY);
+    if slot.rig.is_none() && config.rig.has_footswitch() && reopen_due {
+        match super::rig::open(&config.rig) {
+            Ok(rig) => {
+                tracing::info!("rig open; listening to the footswitch");
+                slot.rig = Some(rig);
+                slot.failed_at = None;
+                shared.update(|s| s.footswitch = Some("listening".into()));
+            }
+            Err(e) => {
+                let error = format!("opening the rig: {e}");
+                if slot.failed_at.is_none() {
+                    tracing::error!("{error}; retrying every {}s", REOPEN_EVERY.as_secs());
+                }
+                slot.failed_at = Some(Instant::now());
+                shared.update(|s| {
+                    s.footswitch = Some(format!("not listening: {error}"));
+                    s.last_error = Some(error);
+                });
+            }
+        }
+    }
+    let Some(trigger) = slot.rig.as_mut().and_then(|r| r.trigger.as_mut()) else {
+        let s = shared.lock();
+        if s.queue.is_empty() && !s.stopping {
+            drop(shared.wait(s, Duration::from_millis(500)));
+        }
+        return;
+    };
+    match trigger.wait(IDLE_SLICE) {
+        Ok(Some(press)) => {
+            if debounced(&mut slot.last_press, press) {
+                tracing::info!("{}: pressed", trigger.id());
+                request_capture(shared, config, None, Source::Footswitch);
+            }
+        }
+        Ok(None) => {
+            if slot.trigger_error.take().is_some() {
+                shared.update(|s| s.footswitch = Some("listening".into()));
+            }
+        }
+        Err(e) => {
+            let error = e.to_string();
+            if slot.trigger_error.as_deref() != Some(error.as_str()) {
+                tracing::warn!("footswitch: {error}");
+                shared.update(|s| s.footswitch = Some(format!("not listening: {error}")));
+                slot.trigger_error = Some(error);
+            }
+            // A trigger that fails at once must not spin.
+            std::thread::sleep(IDLE_SLICE);
+        }
+    }
+}
+
+/// Records how job `id` ended and hands a published scan to `worker`.
+fn finish_job(
+    config: &Config,
+    shared: &Shared,
+    worker: &Worker,
+    id: u64,
+    result: Result<(PathBuf, serde_json::Value, usize), String>,
+) {
+    shared.update(|s| {
+        s.current = None;
+        match result {
+            Ok((scan, summary, _)) => {
+                tracing::info!("job {id}: scan published at {}", scan.display());
+                s.event(
+                    id,
+                    json!({"event": "done", "job": id, "scan": scan, "summary": summary}),
+                );
+                s.set_stage(
+                    id,
+                    JobStage::Captured {
+                        scan: scan.clone(),
+                        summary,
+                    },
+                );
+                let given = s
+                    .jobs
+                    .get(&id)
+                    .and_then(|j| config.profiles.get(&j.profile))
+                    .map(|p| p.given.iter().copied().collect())
+                    .unwrap_or_default();
+                if !worker.submit(Job { id, scan, given }) {
+                    tracing::error!("job {id}: the estimation worker is gone");
+                }
+            }
+            Err(error) => {
+                tracing::error!("job {id}: capture failed: {error}");
+                s.event(id, json!({"event": "failed", "job": id, "error": error}));
+                s.set_stage(
+                    id,
+                    JobStage::Failed {
+                        error: error.clone(),
+                    },
+                );
+                s.last_error = Some(format!("job {id}: {error}"));
+            }
+        }
+    });
+}
+
+/// Opens the rig if needed and carries out job `id`; returns the scan, its
+/// summary and the footswitch presses made during it, or the error as the
+/// operator should read it.
 fn run_job(
     config: &Config,
     shared: &Shared,
     rig: &mut Option<Rig>,
     id: u64,
-) -> Result<(PathBuf, serde_json::Value), String> {
+) -> Result<(PathBuf, serde_json::Value, usize), String> {
     let profile_name = shared
         .lock()
         .jobs
@@ -340,6 +470,7 @@ fn run_job(
                 "left_out": o.left_out,
                 "seconds": o.seconds,
             }),
+            o.presses_during,
         )),
         Err(e) => {
             // A device that failed may be in any state: reopen it for the

@@ -7,7 +7,7 @@
 //! Boundaries: parses requests and answers them from the shared state;
 //! captures happen on the capture thread (`super::server`).
 
-use super::config::{BusyPolicy, Config};
+use super::config::Config;
 use super::state::{JobStage, Shared};
 use serde::Deserialize;
 use serde_json::{json, Value};
@@ -23,18 +23,8 @@ pub enum Request {
     Watch { job: u64 },
 }
 
-/// Error codes of refused requests.
-pub mod code {
-    pub const BAD_REQUEST: &str = "bad_request";
-    pub const BUSY: &str = "busy";
-    pub const UNKNOWN_PROFILE: &str = "unknown_profile";
-    pub const UNKNOWN_JOB: &str = "unknown_job";
-    pub const STOPPING: &str = "stopping";
-}
-
-fn refusal(code: &str, error: String) -> Value {
-    json!({"ok": false, "code": code, "error": error})
-}
+pub use super::request::code;
+use super::request::{refusal, request_capture, Source};
 
 /// Serves one connection until the peer closes it.
 pub fn serve_connection(stream: UnixStream, shared: &Shared, config: &Config) {
@@ -57,9 +47,10 @@ pub fn serve_connection(stream: UnixStream, shared: &Shared, config: &Config) {
                 &refusal(code::BAD_REQUEST, format!("cannot parse `{line}`: {e}")),
             ),
             Ok(Request::Status) => send(&mut writer, &shared.lock().status_json()),
-            Ok(Request::Capture { profile }) => {
-                send(&mut writer, &capture(shared, config, profile))
-            }
+            Ok(Request::Capture { profile }) => send(
+                &mut writer,
+                &request_capture(shared, config, profile, Source::Socket),
+            ),
             Ok(Request::Watch { job }) => watch(&mut writer, shared, job),
         };
         if sent.is_err() {
@@ -72,46 +63,6 @@ fn send(w: &mut UnixStream, value: &Value) -> std::io::Result<()> {
     let mut line = value.to_string();
     line.push('\n');
     w.write_all(line.as_bytes())
-}
-
-/// Queues a capture, or refuses it as the configuration says.
-fn capture(shared: &Shared, config: &Config, profile: Option<String>) -> Value {
-    let profile = profile.unwrap_or_else(|| config.default_profile.clone());
-    if !config.profiles.contains_key(&profile) {
-        let known: Vec<&str> = config.profiles.keys().map(String::as_str).collect();
-        return refusal(
-            code::UNKNOWN_PROFILE,
-            format!("no profile `{profile}` (defined: {})", known.join(", ")),
-        );
-    }
-    shared.update(|s| {
-        if s.stopping {
-            return refusal(code::STOPPING, "the daemon is stopping".into());
-        }
-        let busy = s.current.is_some() || !s.queue.is_empty();
-        match config.busy {
-            BusyPolicy::Refuse if busy => {
-                let id = s.current.or(s.queue.front().copied()).unwrap_or_default();
-                tracing::info!("capture request refused: job {id} is capturing");
-                return refusal(
-                    code::BUSY,
-                    format!("a capture is running (job {id}) and busy = \"refuse\""),
-                );
-            }
-            BusyPolicy::Queue { limit } if s.queue.len() >= limit => {
-                tracing::info!("capture request refused: the queue is full");
-                return refusal(
-                    code::BUSY,
-                    format!("the queue is full ({limit} captures waiting)"),
-                );
-            }
-            _ => {}
-        }
-        let ahead = s.queue.len() + usize::from(s.current.is_some());
-        let id = s.enqueue(&profile);
-        tracing::info!("job {id}: capture queued (profile {profile}, {ahead} ahead)");
-        json!({"ok": true, "job": id, "profile": profile, "ahead": ahead})
-    })
 }
 
 /// Streams job `id`'s events until it is finished.

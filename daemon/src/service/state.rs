@@ -27,6 +27,8 @@ pub enum JobStage {
 pub struct JobRecord {
     pub id: u64,
     pub profile: String,
+    /// Who asked for it: `socket` or `footswitch`.
+    pub source: String,
     pub stage: JobStage,
     /// Every event so far, in order (what `watch` replays).
     pub events: Vec<Value>,
@@ -60,12 +62,15 @@ pub struct State {
     pub rig: String,
     /// The last failure (of a capture or of opening the rig).
     pub last_error: Option<String>,
+    /// The footswitch as the idle daemon last saw it: `None` when the rig
+    /// has none or is not open yet, else "listening" or what went wrong.
+    pub footswitch: Option<String>,
     pub stopping: bool,
 }
 
 impl State {
-    /// Records a new queued job and returns its id.
-    pub fn enqueue(&mut self, profile: &str) -> u64 {
+    /// Records a new queued job, asked for by `source`, and returns its id.
+    pub fn enqueue(&mut self, profile: &str, source: &str) -> u64 {
         self.next_id += 1;
         let id = self.next_id;
         self.jobs.insert(
@@ -73,8 +78,11 @@ impl State {
             JobRecord {
                 id,
                 profile: profile.to_string(),
+                source: source.to_string(),
                 stage: JobStage::Queued,
-                events: vec![json!({"event": "queued", "job": id, "profile": profile})],
+                events: vec![
+                    json!({"event": "queued", "job": id, "profile": profile, "source": source}),
+                ],
                 check: None,
                 estimate: None,
                 processed: false,
@@ -122,13 +130,13 @@ impl State {
                 .rev()
                 .find(|e| e["event"] == "progress")
                 .cloned();
-            json!({"job": j.id, "profile": j.profile, "progress": progress})
+            json!({"job": j.id, "profile": j.profile, "source": j.source, "progress": progress})
         });
         let queue: Vec<Value> = self
             .queue
             .iter()
             .filter_map(|id| self.jobs.get(id))
-            .map(|j| json!({"job": j.id, "profile": j.profile}))
+            .map(|j| json!({"job": j.id, "profile": j.profile, "source": j.source}))
             .collect();
         let last_scans: Vec<Value> = self
             .jobs
@@ -137,6 +145,7 @@ impl State {
             .filter_map(|j| match &j.stage {
                 JobStage::Captured { scan, summary } => Some(json!({
                     "job": j.id,
+                    "source": j.source,
                     "scan": scan,
                     "summary": summary,
                     "check": j.check,
@@ -159,6 +168,7 @@ impl State {
         json!({
             "ok": true,
             "rig": self.rig,
+            "footswitch": self.footswitch,
             "state": if self.stopping { "stopping" } else if self.current.is_some() { "capturing" } else { "idle" },
             "current": current,
             "queue": queue,

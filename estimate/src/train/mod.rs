@@ -1,8 +1,11 @@
 //! Training of one parameter network on simulated scan bundles (thesis
 //! section 3.2.2 and the losses of 3.2.3.1 to 3.2.3.5), on the CPU.
 //!
-//! The loop: Adam at a learning rate of 1e-3 (the thesis's), batch size 1
-//! (one scene per step), every network conditioned on the **true**
+//! The loop: Adam at a learning rate of 1e-3 (the thesis's; optionally
+//! decayed by a cosine to `final_learning_rate`, which settles the noisy
+//! batch-of-one steps of a short CPU run), batch size 1 (one scene per
+//! step), from random weights or from a weight file (`init`, to continue
+//! a shipped network on new data), every network conditioned on the **true**
 //! dependency maps (see `data`). The thesis's schedule, scaled to a CPU
 //! budget of a few thousand steps instead of 150 epochs:
 //!
@@ -38,7 +41,7 @@ use crate::inputs::InputsError;
 use crate::network::{ConfigError, InputError, NetConfig, ParamNet};
 use crate::spec::ParamKind;
 use crate::views::ViewError;
-use crate::weights::{self, WeightsError};
+use crate::weights::{self, WeightSource, WeightsError};
 use burn::optim::{AdamConfig, GradientsParams};
 use burn::tensor::Device;
 use data::{Cut, SceneData};
@@ -158,6 +161,13 @@ pub struct TrainConfig {
     pub max_seconds: Option<f64>,
     /// Use at most this many training scenes.
     pub max_scenes: Option<usize>,
+    /// The starting weights of a fresh run (fine-tuning); random weights
+    /// seeded by `seed` when `None`. A resumed run ignores it: the
+    /// checkpoint is newer.
+    pub init: Option<WeightSource>,
+    /// Where the learning rate ends: cosine decay from `learning_rate` at
+    /// step 0 to this at the last step; constant (the thesis's) when `None`.
+    pub final_learning_rate: Option<f64>,
 }
 
 impl TrainConfig {
@@ -182,6 +192,20 @@ impl TrainConfig {
             single_steps: None,
             max_seconds: None,
             max_scenes: None,
+            init: None,
+            final_learning_rate: None,
+        }
+    }
+
+    /// The learning rate of step `step` (0-based). A function of the step
+    /// alone, so a resumed run continues the same schedule.
+    pub fn learning_rate_at(&self, step: usize) -> f64 {
+        match self.final_learning_rate {
+            None => self.learning_rate,
+            Some(end) => {
+                let t = (step as f64 / self.steps.max(1) as f64).clamp(0.0, 1.0);
+                end + (self.learning_rate - end) * 0.5 * (1.0 + (std::f64::consts::PI * t).cos())
+            }
         }
     }
 
@@ -428,7 +452,11 @@ pub fn train(
             if csv.exists() {
                 plot::truncate(&csv, 0)?;
             }
-            (ParamNet::new(net_config, device), 0, 0.0)
+            let net = match &config.init {
+                None => ParamNet::new(net_config, device),
+                Some(source) => weights::load(source, net_config, device)?,
+            };
+            (net, 0, 0.0)
         }
     };
     progress(Event::Start {
@@ -480,7 +508,7 @@ pub fn train(
         if value.is_finite() {
             non_finite = 0;
             let grads = GradientsParams::from_grads(loss.backward(), &net);
-            net = optimizer.step(config.learning_rate, net, grads);
+            net = optimizer.step(config.learning_rate_at(step - 1), net, grads);
             log.interval.0 += value;
             log.interval.1 += 1;
         } else {
@@ -608,6 +636,22 @@ mod tests {
         assert_eq!(config.phase(499), Phase::Single);
         assert_eq!(config.phase(500), Phase::All);
         assert_eq!(config.phase(501), Phase::Pair);
+    }
+
+    #[test]
+    fn the_learning_rate_is_constant_or_falls_by_cosine_to_its_end() {
+        let mut config = TrainConfig::new(ParamKind::Metallic, "d".into(), "o".into());
+        config.steps = 100;
+        assert_eq!(config.learning_rate_at(0), LEARNING_RATE);
+        assert_eq!(config.learning_rate_at(99), LEARNING_RATE);
+        config.final_learning_rate = Some(1.0e-5);
+        assert!((config.learning_rate_at(0) - 1.0e-3).abs() < 1e-12);
+        assert!((config.learning_rate_at(50) - (1.0e-5 + 0.5 * (1.0e-3 - 1.0e-5))).abs() < 1e-12);
+        assert!((config.learning_rate_at(100) - 1.0e-5).abs() < 1e-12);
+        // Past the planned steps (a run extended by hand) it stays at the end.
+        assert!((config.learning_rate_at(500) - 1.0e-5).abs() < 1e-12);
+        let rates: Vec<f64> = (0..=100).map(|s| config.learning_rate_at(s)).collect();
+        assert!(rates.windows(2).all(|w| w[1] <= w[0]));
     }
 
     #[test]

@@ -17,6 +17,7 @@ fn sim(positions: usize, turntable: bool, faults: FaultConfig) -> RigChoice {
         positions,
         samples: 1,
         turntable,
+        footswitch: None,
         faults,
     })
 }
@@ -139,9 +140,13 @@ fn a_dead_flash_is_retried_then_fails_naming_it_and_publishes_nothing() {
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
 }
 
-#[test]
-fn without_a_turntable_the_sequencer_waits_for_the_operators_press() {
-    let dir = tempfile::tempdir().unwrap();
+/// A two-position simulated rig without turntable: the rig, the turntable
+/// the "operator" turns by hand, and the footswitch's button.
+fn hand_turned_rig() -> (
+    Rig,
+    matscan_drivers::sim_rig::SimPositioner,
+    FootswitchButton,
+) {
     let RigChoice::Simulated(c) = sim(2, false, FaultConfig::default()) else {
         unreachable!("sim() makes a simulated rig");
     };
@@ -166,8 +171,7 @@ fn without_a_turntable_the_sequencer_waits_for_the_operators_press() {
     )
     .unwrap();
     let button: FootswitchButton = sim_rig.footswitch.clone();
-    let mut turntable = sim_rig.positioner;
-    let mut rig = Rig {
+    let rig = Rig {
         camera: Box::new(sim_rig.camera),
         lights: Box::new(sim_rig.lights),
         projector: Some(Box::new(sim_rig.projector)),
@@ -178,15 +182,23 @@ fn without_a_turntable_the_sequencer_waits_for_the_operators_press() {
         truth: None,
         mesh_source: None,
     };
-    // The operator: turns the object by hand, then presses.
-    let operator = std::thread::spawn(move || {
-        std::thread::sleep(Duration::from_millis(300));
-        turntable.advance().unwrap();
-        button.press();
-    });
+    (rig, sim_rig.positioner, button)
+}
+
+#[test]
+fn without_a_turntable_the_sequencer_waits_for_the_operators_press() {
+    let dir = tempfile::tempdir().unwrap();
+    let (mut rig, mut turntable, button) = hand_turned_rig();
+    let plan = plan(
+        &Profile::default(),
+        rig.geometry.checker_periods,
+        rig.capabilities(),
+    );
     let target = dir.path().join("scan-0001");
-    let out = run(&mut rig, &Profile::default(), &target).unwrap();
-    operator.join().unwrap();
+    let out = capture_with_operator(&mut rig, &plan, &target, &settings(), button, move || {
+        turntable.advance().unwrap();
+    });
+    let out = out.unwrap();
     assert_eq!(out.positions, 2);
     let bundle = Bundle::open(&target).unwrap();
     let a = bundle.read_photo("p0", "ambient").unwrap();
@@ -195,6 +207,49 @@ fn without_a_turntable_the_sequencer_waits_for_the_operators_press() {
         mean_abs_difference(&a, &b) > 1e-3,
         "p1 was taken after the turn"
     );
+}
+
+#[test]
+fn a_press_made_before_the_wait_does_not_move_on_and_is_counted() {
+    let dir = tempfile::tempdir().unwrap();
+    let (mut rig, _turntable, button) = hand_turned_rig();
+    // Pressed before the capture (as during p0's photos): the object has
+    // not been moved, so it must not count as "in place".
+    button.press();
+    button.press();
+    let plan = plan(
+        &Profile::default(),
+        rig.geometry.checker_periods,
+        rig.capabilities(),
+    );
+    let quick = RunSettings {
+        operator_timeout: Duration::from_millis(600),
+        ..settings()
+    };
+    let err = rig
+        .capture(
+            &plan,
+            "",
+            &dir.path().join("scan-0001"),
+            &quick,
+            &|| false,
+            &mut |_| {},
+        )
+        .unwrap_err();
+    assert!(
+        matches!(&err, CaptureError::OperatorTimeout { position, .. } if position == "p1"),
+        "{err}"
+    );
+    assert!(!dir.path().join("scan-0001").exists());
+
+    // An early press again, then presses once p0's photos are done: the
+    // sequencer moves on, and reports the early press.
+    button.press();
+    let target = dir.path().join("scan-0002");
+    let out = capture_with_operator(&mut rig, &plan, &target, &settings(), button, || {});
+    let out = out.unwrap();
+    assert_eq!(out.positions, 2);
+    assert!(out.presses_during >= 1, "{out:?}");
 }
 
 #[test]

@@ -1,0 +1,95 @@
+//! A capture request, from the control socket or the footswitch: checked
+//! against the profiles, then queued or refused by the busy policy. One
+//! function for both sources, so a press and a `capture-now` obey the same
+//! rules.
+//!
+//! Boundaries: bookkeeping on [`Shared`]; no I/O.
+
+use super::config::{BusyPolicy, Config};
+use super::state::Shared;
+use serde_json::{json, Value};
+
+/// Error codes of refused requests.
+pub mod code {
+    pub const BAD_REQUEST: &str = "bad_request";
+    pub const BUSY: &str = "busy";
+    pub const UNKNOWN_PROFILE: &str = "unknown_profile";
+    pub const UNKNOWN_JOB: &str = "unknown_job";
+    pub const STOPPING: &str = "stopping";
+}
+
+/// Who asked for a capture.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Source {
+    /// A `capture` request on the control socket (`matscan capture-now`).
+    Socket,
+    /// The operator's footswitch, pressed while the daemon was idle.
+    Footswitch,
+    /// The footswitch, pressed while a capture was running: the busy
+    /// policy applies even if that capture has ended by now.
+    FootswitchDuringCapture,
+}
+
+impl Source {
+    /// The name in events and `status`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Source::Socket => "socket",
+            Source::Footswitch | Source::FootswitchDuringCapture => "footswitch",
+        }
+    }
+}
+
+/// A refusal reply.
+pub fn refusal(code: &str, error: String) -> Value {
+    json!({"ok": false, "code": code, "error": error})
+}
+
+/// Queues a capture with `profile` (the default one when `None`), or
+/// refuses it as the configuration says; the reply as the socket sends it.
+pub fn request_capture(
+    shared: &Shared,
+    config: &Config,
+    profile: Option<String>,
+    source: Source,
+) -> Value {
+    let profile = profile.unwrap_or_else(|| config.default_profile.clone());
+    if !config.profiles.contains_key(&profile) {
+        let known: Vec<&str> = config.profiles.keys().map(String::as_str).collect();
+        return refusal(
+            code::UNKNOWN_PROFILE,
+            format!("no profile `{profile}` (defined: {})", known.join(", ")),
+        );
+    }
+    let from = source.name();
+    shared.update(|s| {
+        if s.stopping {
+            return refusal(code::STOPPING, "the daemon is stopping".into());
+        }
+        let busy =
+            s.current.is_some() || !s.queue.is_empty() || source == Source::FootswitchDuringCapture;
+        match config.busy {
+            BusyPolicy::Refuse if busy => {
+                let running = s.current.or(s.queue.front().copied());
+                let what = running.map_or_else(
+                    || "a capture was running".to_string(),
+                    |id| format!("a capture is running (job {id})"),
+                );
+                tracing::info!("capture request ({from}) refused: {what}");
+                return refusal(code::BUSY, format!("{what} and busy = \"refuse\""));
+            }
+            BusyPolicy::Queue { limit } if s.queue.len() >= limit => {
+                tracing::info!("capture request ({from}) refused: the queue is full");
+                return refusal(
+                    code::BUSY,
+                    format!("the queue is full ({limit} captures waiting)"),
+                );
+            }
+            _ => {}
+        }
+        let ahead = s.queue.len() + usize::from(s.current.is_some());
+        let id = s.enqueue(&profile, from);
+        tracing::info!("job {id}: capture queued by the {from} (profile {profile}, {ahead} ahead)");
+        json!({"ok": true, "job": id, "profile": profile, "ahead": ahead})
+    })
+}
