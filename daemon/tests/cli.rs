@@ -273,3 +273,23 @@ fn estimate_on_a_gpu_it_cannot_use_says_what_is_missing() {
         "{err}"
     );
 }
+
+#[test]
+fn logs_to_a_pipe_carry_no_colour_codes() {
+    // A tiny scan that calibration warns about (too few white-reference
+    // pixels at 8 px): a warning reaches stderr, which is a pipe here, as
+    // it is under a service manager or in a log file.
+    let dir = tempfile::tempdir().unwrap();
+    let scan = dir.path().join("s");
+    let scan_arg = scan.display().to_string();
+    simulate_sphere(8, 1, 1, &["--out", &scan_arg]);
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_matscan"))
+        .args(["calib", "check", &scan_arg])
+        .env("RUST_LOG", "info")
+        .env_remove("JOURNAL_STREAM")
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(stderr.contains("WARN"), "{stderr}");
+    assert!(!stderr.contains('\u{1b}'), "ANSI escapes in {stderr:?}");
+}

@@ -172,3 +172,91 @@ fn with_busy_queue_presses_wait_their_turn_and_each_gets_its_own_scan() {
         Bundle::open(&s).unwrap();
     }
 }
+
+#[test]
+fn the_socket_goes_to_socket_group_and_an_unknown_group_is_refused_naming_it() {
+    use std::os::unix::fs::MetadataExt;
+    let group = matscan::service::server::own_group_name().expect("this process's group");
+    let gid = matscan::service::server::group_id(&group)
+        .unwrap()
+        .expect("the group exists");
+    let dir = tempfile::tempdir().unwrap();
+    let d = TestDaemon::start(dir.path(), &format!("socket_group = {group:?}"), "");
+    let meta = std::fs::metadata(&d.socket).unwrap();
+    assert_eq!(meta.gid(), gid);
+    assert_eq!(meta.permissions().mode() & 0o777, 0o660);
+    d.stop();
+
+    let other = tempfile::tempdir().unwrap();
+    let text = daemon_support::config_text(
+        &other.path().join("s.sock"),
+        &other.path().join("scans"),
+        "socket_group = \"no-such-group-matscan\"",
+        "",
+    );
+    let config =
+        matscan::service::config::Config::parse(&text, std::path::Path::new("t.toml")).unwrap();
+    let err = matscan::service::server::Server::bind(
+        config,
+        matscan::service::notify::Notifier::new(None, None),
+    )
+    .err()
+    .expect("an unknown group is refused")
+    .to_string();
+    assert!(
+        err.contains("socket_group `no-such-group-matscan`"),
+        "{err}"
+    );
+}
+
+#[test]
+fn a_scan_published_but_never_estimated_is_estimated_after_a_restart() {
+    let dir = tempfile::tempdir().unwrap();
+    let scans = dir.path().join("scans");
+    std::fs::create_dir_all(&scans).unwrap();
+    // scan-0001 has its estimate; scan-0002 and scan-0003 were published
+    // just before the daemon died, their estimates never written.
+    for n in 1..=3 {
+        let out = scans.join(format!("scan-{n:04}"));
+        daemon_support::simulate_sphere(24, 1, 1, &["--out", &out.display().to_string()]);
+    }
+    std::fs::create_dir_all(scans.join("scan-0001/estimate")).unwrap();
+    std::fs::write(scans.join("scan-0001/estimate/result.toml"), "").unwrap();
+    let weights = daemon_support::test_weights(dir.path());
+    let d = TestDaemon::start(dir.path(), &weights, "");
+    let deadline = Instant::now() + Duration::from_secs(120);
+    let status = loop {
+        let s = fetch_status(&d.socket).unwrap();
+        let done = s["last_scans"]
+            .as_array()
+            .is_some_and(|l| l.len() == 2 && l.iter().all(|j| !j["estimate"].is_null()));
+        if done || Instant::now() > deadline {
+            break s;
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    };
+    let recovered: Vec<&str> = status["last_scans"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|j| {
+            assert_eq!(j["source"], "restart", "{j}");
+            assert_eq!(j["estimate"]["outcome"], "estimated", "{j}");
+            j["scan"].as_str().unwrap()
+        })
+        .collect();
+    let expected: Vec<String> = ["scan-0003", "scan-0002"]
+        .iter()
+        .map(|n| scans.join(n).display().to_string())
+        .collect();
+    assert_eq!(recovered, expected, "{status}");
+    for n in ["scan-0002", "scan-0003"] {
+        assert!(scans.join(n).join("estimate/result.toml").is_file(), "{n}");
+    }
+    // The one already estimated was left alone.
+    assert_eq!(
+        std::fs::read_to_string(scans.join("scan-0001/estimate/result.toml")).unwrap(),
+        ""
+    );
+    d.stop();
+}

@@ -97,3 +97,59 @@ fn a_flash_that_does_not_fire_is_retried_then_named() {
 fn a_full_disk_fails_the_capture_and_removes_the_temporary_folder() {
     fault_is_reported("disk_capacity = 3000", "no space left on the device");
 }
+
+#[test]
+fn a_mesh_that_does_not_match_the_photos_gets_the_estimate_refused_and_keeps_the_photos() {
+    use matscan::service::worker::{EstimateOutcome, Job, Verdict, Worker};
+    let dir = tempfile::tempdir().unwrap();
+    let scan = dir.path().join("scan-0001");
+    let scan_arg = scan.display().to_string();
+    daemon_support::simulate_sphere(32, 1, 1, &["--out", &scan_arg]);
+    // The scanner software left the previous object's mesh: the same
+    // sphere, somewhere else.
+    let bundle = matscan_scan::Bundle::open(&scan).unwrap();
+    let mut mesh = bundle.read_mesh().unwrap();
+    for v in &mut mesh.positions {
+        v.x += 0.6;
+    }
+    matscan_scan::mesh_io::write_mesh(&bundle.mesh_path(), &mesh).unwrap();
+    let photos_before = std::fs::read_dir(scan.join("views").join("p0"))
+        .map(|d| d.count())
+        .unwrap_or(0);
+
+    let (tx, rx) = std::sync::mpsc::channel();
+    let weights = daemon_support::weights_dir(dir.path(), 3);
+    let settings = matscan::service::config::EstimateSettings {
+        enabled: true,
+        weights: Some(weights),
+    };
+    let worker = Worker::spawn(settings, move |job, p| tx.send((job.id, p)).unwrap()).unwrap();
+    assert!(worker.submit(Job {
+        id: 1,
+        scan: scan.clone(),
+        given: vec![],
+    }));
+    let (_, processed) = rx.recv().unwrap();
+    worker.finish();
+    let Verdict::Problems { problems, geometry } = &processed.check else {
+        panic!("expected problems, got {:?}", processed.check);
+    };
+    assert!(geometry, "{problems:?}");
+    assert!(
+        problems.iter().any(|p| p.contains("silhouette")),
+        "{problems:?}"
+    );
+    let Some(EstimateOutcome::Failed { error }) = &processed.estimate else {
+        panic!("expected a refused estimate, got {:?}", processed.estimate);
+    };
+    assert!(
+        error.contains("estimate refused") && error.contains(&scan_arg) && error.contains("stale"),
+        "{error}"
+    );
+    assert!(!scan.join("estimate").exists(), "nothing estimated");
+    let photos_after = std::fs::read_dir(scan.join("views").join("p0"))
+        .map(|d| d.count())
+        .unwrap_or(0);
+    assert_eq!(photos_before, photos_after, "the photos are kept");
+    assert!(matscan_scan::Bundle::open(&scan).is_ok());
+}

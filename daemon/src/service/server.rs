@@ -33,6 +33,8 @@ pub enum ServerError {
     },
     #[error("{path}: another daemon is already listening on this socket")]
     SocketInUse { path: PathBuf },
+    #[error("socket_group `{group}`: no such group on this machine")]
+    NoSuchGroup { group: String },
 }
 
 fn io_err(path: &Path, action: &'static str) -> impl FnOnce(std::io::Error) -> ServerError {
@@ -59,7 +61,7 @@ impl Server {
         std::fs::create_dir_all(&config.scans)
             .map_err(io_err(&config.scans, "creating the scans folder"))?;
         clean_scans(&config.scans)?;
-        let listener = bind_socket(&config.socket)?;
+        let listener = bind_socket(&config.socket, config.socket_group.as_deref())?;
         let shared = Arc::new(Shared::default());
         shared.lock().rig = config.rig.describe();
         tracing::info!(
@@ -121,6 +123,20 @@ impl Server {
             });
         })
         .map_err(io_err(&config.socket, "starting the estimation worker"))?;
+        if config.estimate.enabled {
+            for (scan, info) in unestimated_tail(&config.scans) {
+                let id = shared.update(|s| s.recovered(scan.clone(), &info.profile));
+                tracing::warn!(
+                    "job {id}: {} was published but never estimated (the daemon stopped); estimating it now",
+                    scan.display()
+                );
+                worker.submit(Job {
+                    id,
+                    scan,
+                    given: info.given,
+                });
+            }
+        }
         let capture = {
             let (config, shared) = (config.clone(), shared.clone());
             let socket = config.socket.clone();
@@ -532,6 +548,70 @@ pub fn clean_scans(scans: &Path) -> Result<Vec<PathBuf>, ServerError> {
     Ok(removed)
 }
 
+/// What `capture.toml` says of a scan's profile.
+pub struct CaptureInfo {
+    pub profile: String,
+    pub given: Vec<matscan_scan::Param>,
+}
+
+/// Reads `scan/capture.toml`; the full profile when it is missing or
+/// unreadable (a scan from elsewhere).
+pub fn capture_info(scan: &Path) -> CaptureInfo {
+    #[derive(serde::Deserialize)]
+    struct Raw {
+        profile: Option<String>,
+        #[serde(default)]
+        given: Vec<String>,
+    }
+    let raw = std::fs::read_to_string(scan.join(super::sequencer::CAPTURE_INFO_FILE))
+        .ok()
+        .and_then(|t| toml::from_str::<Raw>(&t).ok());
+    CaptureInfo {
+        profile: raw
+            .as_ref()
+            .and_then(|r| r.profile.clone())
+            .unwrap_or_else(|| super::config::FULL_PROFILE.to_string()),
+        given: raw
+            .map(|r| r.given.iter().filter_map(|g| g.parse().ok()).collect())
+            .unwrap_or_default(),
+    }
+}
+
+/// The newest published scans (`scan-NNNN`, by number) after the last one
+/// with an estimate (`estimate/result.toml`), oldest first: what an
+/// interrupted worker left unestimated. Older scans without one had their
+/// estimate fail or refused, and stay as they are.
+pub fn unestimated_tail(scans: &Path) -> Vec<(PathBuf, CaptureInfo)> {
+    let mut numbered: Vec<(u64, PathBuf)> = std::fs::read_dir(scans)
+        .into_iter()
+        .flatten()
+        .flatten()
+        .filter_map(|e| {
+            let n = e
+                .file_name()
+                .to_str()?
+                .strip_prefix("scan-")?
+                .parse()
+                .ok()?;
+            Some((n, e.path()))
+        })
+        .filter(|(_, p)| p.join(matscan_scan::bundle::MANIFEST_FILE).is_file())
+        .collect();
+    numbered.sort();
+    let start = numbered
+        .iter()
+        .rposition(|(_, p)| p.join("estimate").join("result.toml").is_file())
+        .map_or(0, |i| i + 1);
+    numbered
+        .into_iter()
+        .skip(start)
+        .map(|(_, p)| {
+            let info = capture_info(&p);
+            (p, info)
+        })
+        .collect()
+}
+
 /// `scans/scan-NNNN`, one past the highest number there.
 pub fn next_scan_path(scans: &Path) -> Result<PathBuf, ServerError> {
     let mut highest = 0u64;
@@ -549,9 +629,9 @@ pub fn next_scan_path(scans: &Path) -> Result<PathBuf, ServerError> {
     Ok(scans.join(format!("scan-{:04}", highest + 1)))
 }
 
-/// Binds `path` with mode 0660, replacing a stale socket file but never a
-/// live daemon's.
-fn bind_socket(path: &Path) -> Result<UnixListener, ServerError> {
+/// Binds `path` with mode 0660 (and group `group` when given), replacing a
+/// stale socket file but never a live daemon's.
+fn bind_socket(path: &Path, group: Option<&str>) -> Result<UnixListener, ServerError> {
     if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
         std::fs::create_dir_all(parent).map_err(io_err(parent, "creating the socket's folder"))?;
     }
@@ -566,7 +646,74 @@ fn bind_socket(path: &Path) -> Result<UnixListener, ServerError> {
     let listener = UnixListener::bind(path).map_err(io_err(path, "binding the control socket"))?;
     std::fs::set_permissions(path, std::fs::Permissions::from_mode(0o660))
         .map_err(io_err(path, "setting the socket's mode to 0660"))?;
+    if let Some(group) = group {
+        let gid = group_id(group)?.ok_or_else(|| ServerError::NoSuchGroup {
+            group: group.to_string(),
+        })?;
+        // The daemon may give its socket to any group it is a member of.
+        std::os::unix::fs::chown(path, None, Some(gid))
+            .map_err(io_err(path, "giving the socket to `socket_group`"))?;
+    }
     Ok(listener)
+}
+
+/// The id of group `name`, `None` when there is no such group.
+pub fn group_id(name: &str) -> Result<Option<u32>, ServerError> {
+    let lookup = |source| ServerError::Io {
+        path: PathBuf::from("/etc/group"),
+        action: "looking up `socket_group`",
+        source,
+    };
+    let c = std::ffi::CString::new(name).map_err(|_| ServerError::NoSuchGroup {
+        group: name.to_string(),
+    })?;
+    let mut buf = vec![0u8; 4096];
+    loop {
+        // SAFETY: `group` and `result` are valid out-pointers, `buf` is
+        // writable for its length, `c` is NUL-terminated.
+        let mut group: libc::group = unsafe { std::mem::zeroed() };
+        let mut result: *mut libc::group = std::ptr::null_mut();
+        let rc = unsafe {
+            libc::getgrnam_r(
+                c.as_ptr(),
+                &mut group,
+                buf.as_mut_ptr().cast(),
+                buf.len(),
+                &mut result,
+            )
+        };
+        match rc {
+            0 if result.is_null() => return Ok(None),
+            0 => return Ok(Some(group.gr_gid)),
+            libc::ERANGE if buf.len() < 1 << 20 => buf.resize(buf.len() * 4, 0),
+            e => return Err(lookup(std::io::Error::from_raw_os_error(e))),
+        }
+    }
+}
+
+/// The name of the calling process's group (for tests and messages).
+pub fn own_group_name() -> Option<String> {
+    // SAFETY: getgid cannot fail.
+    let gid = unsafe { libc::getgid() };
+    let mut buf = vec![0u8; 1 << 16];
+    // SAFETY: as in `group_id`.
+    let mut group: libc::group = unsafe { std::mem::zeroed() };
+    let mut result: *mut libc::group = std::ptr::null_mut();
+    let rc = unsafe {
+        libc::getgrgid_r(
+            gid,
+            &mut group,
+            buf.as_mut_ptr().cast(),
+            buf.len(),
+            &mut result,
+        )
+    };
+    if rc != 0 || result.is_null() {
+        return None;
+    }
+    // SAFETY: on success gr_name points into `buf`, NUL-terminated.
+    let name = unsafe { std::ffi::CStr::from_ptr(group.gr_name) };
+    name.to_str().ok().map(str::to_string)
 }
 
 /// Set by SIGTERM and SIGINT once [`install_signal_handlers`] ran.

@@ -93,6 +93,32 @@ impl State {
         id
     }
 
+    /// Records a scan published before this start whose estimate never
+    /// finished (the daemon stopped or crashed meanwhile), to be handed to
+    /// the worker again; returns its job id.
+    pub fn recovered(&mut self, scan: PathBuf, profile: &str) -> u64 {
+        self.next_id += 1;
+        let id = self.next_id;
+        let summary = json!({"profile": profile, "recovered": true});
+        self.jobs.insert(
+            id,
+            JobRecord {
+                id,
+                profile: profile.to_string(),
+                source: "restart".to_string(),
+                stage: JobStage::Captured {
+                    scan: scan.clone(),
+                    summary: summary.clone(),
+                },
+                events: vec![json!({"event": "done", "job": id, "scan": scan, "summary": summary})],
+                check: None,
+                estimate: None,
+                processed: false,
+            },
+        );
+        id
+    }
+
     pub fn event(&mut self, id: u64, event: Value) {
         if let Some(job) = self.jobs.get_mut(&id) {
             job.events.push(event);

@@ -2,8 +2,14 @@
 //! that the next capture can start while the last scan is processed.
 //!
 //! Per scan it first checks the calibration against the photos
-//! (`matscan_calib::check`, as `matscan calib check` does), then, unless the
-//! configuration turns it off, estimates the BSDF maps into
+//! (`matscan_calib::check`, as `matscan calib check` does). Where the
+//! mesh's silhouette does not match the photographed object (a stale mesh
+//! export, a wrong pose in the rig calibration), the estimate is refused
+//! with that reason: its maps would be the wrong pixels' materials. The
+//! photos stay; `matscan estimate SCAN` runs once the mesh is fixed. A
+//! light check that fails only warns: its correlation is low on strongly
+//! textured objects (see `matscan_calib::check`). Then, unless the
+//! configuration turns it off, the worker estimates the BSDF maps into
 //! `<scan>/estimate` (`matscan_estimate::estimate`, as `matscan estimate`
 //! does). Parameters the capture profile gives are passed as the
 //! documented defaults (`matscan_estimate::plan::default_value`: 0 for
@@ -64,8 +70,12 @@ pub enum Verdict {
     /// Every calibration check passed.
     Passed,
     /// The scan is complete but a check failed (a wrong pose, a misplaced
-    /// light).
-    Problems { problems: Vec<String> },
+    /// light). `geometry`: the mesh's silhouette does not match the photos,
+    /// so the estimate is refused.
+    Problems {
+        problems: Vec<String>,
+        geometry: bool,
+    },
     /// The scan could not be checked at all.
     Failed { error: String },
 }
@@ -93,7 +103,7 @@ impl Worker {
                         Verdict::Passed => {
                             tracing::info!("job {}: calibration check passed", job.id)
                         }
-                        Verdict::Problems { problems } => tracing::warn!(
+                        Verdict::Problems { problems, .. } => tracing::warn!(
                             "job {}: calibration check found problems: {}",
                             job.id,
                             problems.join("; ")
@@ -103,8 +113,18 @@ impl Worker {
                         }
                     }
                     let estimate = settings.enabled.then(|| {
-                        tracing::info!("job {}: estimating {}", job.id, job.scan.display());
-                        let outcome = estimate_scan(&job, &settings);
+                        let outcome = match &verdict {
+                            Verdict::Problems {
+                                problems,
+                                geometry: true,
+                            } => EstimateOutcome::Failed {
+                                error: refusal(&job.scan, problems),
+                            },
+                            _ => {
+                                tracing::info!("job {}: estimating {}", job.id, job.scan.display());
+                                estimate_scan(&job, &settings)
+                            }
+                        };
                         match &outcome {
                             EstimateOutcome::Estimated { summary } => {
                                 tracing::info!("job {}: estimated: {summary}", job.id)
@@ -156,9 +176,21 @@ impl Drop for Worker {
     }
 }
 
+/// Why the estimate of `scan` is refused.
+fn refusal(scan: &Path, problems: &[String]) -> String {
+    format!(
+        "{}: estimate refused: the mesh does not match the photos ({}); is the scanner's \
+         mesh export stale, or the rig calibration wrong? The photos are kept: fix the mesh \
+         or the calibration, then run `matscan estimate {}`",
+        scan.display(),
+        problems.join("; "),
+        scan.display()
+    )
+}
+
 /// Opens, calibrates and checks the scan at `scan`.
 pub fn check_scan(scan: &Path) -> Verdict {
-    let run = || -> Result<Vec<String>, String> {
+    let run = || -> Result<(Vec<String>, bool), String> {
         let bundle = Bundle::open(scan).map_err(|e| e.to_string())?;
         let calibration =
             calibrate_bundle(&bundle, &CalibOptions::default()).map_err(|e| e.to_string())?;
@@ -169,11 +201,17 @@ pub fn check_scan(scan: &Path) -> Verdict {
             &CheckOptions::default(),
         )
         .map_err(|e| e.to_string())?;
-        Ok(report.problems)
+        let min_iou = CheckOptions::default().min_iou;
+        let geometry = report
+            .positions
+            .iter()
+            .filter_map(|p| p.silhouette.as_ref())
+            .any(|s| s.iou < min_iou);
+        Ok((report.problems, geometry))
     };
     match run() {
-        Ok(problems) if problems.is_empty() => Verdict::Passed,
-        Ok(problems) => Verdict::Problems { problems },
+        Ok((problems, _)) if problems.is_empty() => Verdict::Passed,
+        Ok((problems, geometry)) => Verdict::Problems { problems, geometry },
         Err(error) => Verdict::Failed { error },
     }
 }
