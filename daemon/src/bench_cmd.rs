@@ -20,7 +20,9 @@
 //!
 //! The evaluation set is rendered once into `--data DIR`
 //! (`DIR/<size>px/<kind>-<seed>`, kinds 2mat, multimat and 3mat in turn,
-//! random geometry, seeds from `--seed`), with `DIR/bench-data.toml`
+//! `--geometry` (default random; `torus` and the 3mat kind are never in
+//! the shipped networks' training set, so `--geometry torus` makes it a
+//! held-out set), seeds from `--seed`), with `DIR/bench-data.toml`
 //! recording how; a later run with other render settings stops instead of
 //! mixing sets. Each configuration's run time is the median over the scenes
 //! of the estimate's own `total_s` (writing excluded); MAD is the mean over
@@ -137,6 +139,10 @@ pub struct BenchArgs {
     /// Scan-head positions per rendered scene.
     #[arg(long, default_value_t = 3)]
     pub positions: usize,
+    /// Geometry of the rendered scenes: sphere, torus, superquadric, blob,
+    /// leaves or random (torus: a family the shipped networks never saw).
+    #[arg(long, default_value = "random")]
+    pub geometry: String,
     /// Seed of the first scene.
     #[arg(long, default_value_t = 40_000)]
     pub seed: u64,
@@ -354,6 +360,25 @@ struct DataSpec {
     samples: u32,
     positions: usize,
     first_seed: u64,
+    /// Sets recorded before the flag existed were random.
+    #[serde(default = "random_geometry")]
+    geometry: String,
+}
+
+fn random_geometry() -> String {
+    "random".to_string()
+}
+
+impl DataSpec {
+    fn geometry_source(&self) -> Result<GeometrySource> {
+        Ok(match self.geometry.as_str() {
+            "random" => GeometrySource::Random,
+            g => GeometrySource::Kind(
+                g.parse::<matscan_sim::scene::GeometryKind>()
+                    .map_err(|e| anyhow::anyhow!("--geometry {g}: {e} or random"))?,
+            ),
+        })
+    }
 }
 
 const DATA_SPEC: &str = "bench-data.toml";
@@ -378,7 +403,7 @@ fn ensure_scenes(dir: &Path, spec: &DataSpec, size: u32, scenes: usize) -> Resul
             let options = SceneOptions {
                 seed,
                 kind,
-                geometry: GeometrySource::Random,
+                geometry: spec.geometry_source()?,
                 width: size,
                 height: size,
                 positions: spec.positions,
@@ -405,14 +430,14 @@ fn check_data_spec(dir: &Path, spec: &DataSpec) -> Result<()> {
         Ok(text) => {
             let found: DataSpec = toml::from_str(&text).with_context(|| {
                 format!(
-                    "{}: expected samples, positions and first_seed",
+                    "{}: expected samples, positions, first_seed and geometry",
                     path.display()
                 )
             })?;
             if &found != spec {
                 bail!(
                     "{}: the set there was rendered with {found:?}, this run asks for {spec:?}; \
-                     use another --data folder or the same --samples, --positions and --seed",
+                     use another --data folder or the same --samples, --positions, --seed and --geometry",
                     path.display()
                 );
             }
@@ -704,7 +729,9 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         samples: args.samples.max(1),
         positions: args.positions.max(1),
         first_seed: args.seed,
+        geometry: args.geometry.clone(),
     };
+    spec.geometry_source()?;
     check_data_spec(&args.data, &spec)?;
     let mut scans_at = BTreeMap::new();
     for size in plan.sizes_needed() {
@@ -781,6 +808,35 @@ mod tests {
     fn plan(args: &[&str]) -> Plan {
         let cli = Cli::parse_from(std::iter::once("bench").chain(args.iter().copied()));
         Plan::from_args(&cli.bench).unwrap()
+    }
+
+    #[test]
+    fn the_set_records_its_geometry_and_older_sets_read_as_random() {
+        let old: DataSpec =
+            toml::from_str("samples = 8\npositions = 3\nfirst_seed = 40000\n").unwrap();
+        assert_eq!(old.geometry, "random");
+        assert!(matches!(
+            old.geometry_source().unwrap(),
+            GeometrySource::Random
+        ));
+        let torus = DataSpec {
+            geometry: "torus".into(),
+            ..old.clone()
+        };
+        assert!(matches!(
+            torus.geometry_source().unwrap(),
+            GeometrySource::Kind(matscan_sim::scene::GeometryKind::Torus)
+        ));
+        let dir = tempfile::tempdir().unwrap();
+        check_data_spec(dir.path(), &old).unwrap();
+        let e = check_data_spec(dir.path(), &torus).unwrap_err().to_string();
+        assert!(e.contains("--geometry"), "{e}");
+        let bogus = DataSpec {
+            geometry: "teapot".into(),
+            ..old
+        };
+        let e = bogus.geometry_source().unwrap_err().to_string();
+        assert!(e.contains("--geometry teapot"), "{e}");
     }
 
     #[test]

@@ -35,8 +35,9 @@ pub enum Command {
     /// baseline and the thesis's figures.
     Eval(crate::eval_cmd::EvalArgs),
     /// Error against run time over the knobs that trade one for the other
-    /// (views, resolution, network width, backend) on a cached simulated
-    /// set: a table, and with --out bench.csv and bench.png.
+    /// (views, resolution, network width, CPU/GPU backend, refinement
+    /// iterations) on a cached simulated set: a table, and with --out
+    /// bench.csv and bench.png.
     Bench(crate::bench_cmd::BenchArgs),
     /// Re-render the scanned object with its estimated material under
     /// novel lights (--light) or views (--orbit); for simulated scans also

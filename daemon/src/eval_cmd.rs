@@ -30,7 +30,9 @@ use matscan_calib::{calibrate_bundle, CalibOptions};
 use matscan_estimate::metrics::error_metrics;
 use matscan_estimate::views::select_views;
 use matscan_estimate::weights::EMBEDDED;
-use matscan_estimate::{cpu_device, estimate, EstimateOptions, ModelSource, ParamKind, ViewFilter};
+use matscan_estimate::{
+    cpu_device, estimate, EstimateOptions, ModelSource, ParamKind, References, ViewFilter,
+};
 use matscan_scan::{Bundle, Param, TruthImage, TruthMap};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -357,6 +359,13 @@ pub fn run(args: &EvalArgs) -> Result<()> {
             let options = EstimateOptions {
                 out: Some(scratch.join(format!("{count}-{i}"))),
                 filter: view_filter(count, views_of[i].as_deref()),
+                // Texture scores bake what `matscan export` bakes: maps of
+                // every position (one network pass per position).
+                references: if args.textures.textures.is_some() {
+                    References::Every
+                } else {
+                    References::First
+                },
                 ..EstimateOptions::default()
             };
             match evaluate_scene_with(

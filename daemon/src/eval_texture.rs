@@ -15,11 +15,12 @@
 //!   light at the camera; [`IMAGE_WIDTH`] px, [`SAMPLES`] samples per
 //!   pixel; PSNR and SSIM as `matscan::image_metrics` defines them.
 //!
-//! The estimate bakes the positions eval's estimate has maps for: only the
-//! reference position (eval estimates with the default, one reference), so
-//! texels that only other positions see are hole-filled in the estimate;
-//! the texture MAD leaves them out (measured in both), the side views show
-//! them.
+//! The estimate bakes the positions eval's estimate has maps for: with
+//! `--textures`, eval estimates with every position as reference
+//! (`References::Every`), as `matscan export` needs, so its run times are
+//! those of every-position estimates (one network pass per position).
+//! Texels no position sees are hole-filled in both bakes and left out of
+//! the texture MAD (measured in both).
 //!
 //! Beside each image's scores stand those of the true material against
 //! itself rendered with other random numbers: the scale of sampling noise
@@ -240,7 +241,7 @@ impl TextureTable {
     pub fn write_table(&self, table: &mut String, size: u32) {
         let _ = writeln!(
             table,
-            "\ntextures ({size} texels), error on texels measured in both estimate and truth bakes"
+            "\ntextures ({size} texels, every position baked; run times above are every-position estimates), error on texels measured in both estimate and truth bakes"
         );
         let _ = writeln!(
             table,
