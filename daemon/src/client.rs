@@ -369,9 +369,10 @@ pub fn format_status(s: &Value) -> String {
                 _ => String::new(),
             };
             out += &format!(
-                "  job {} {} ({check}{estimate})\n",
+                "  job {} {} (from the {}; {check}{estimate})\n",
                 scan["job"],
-                text(&scan["scan"])
+                text(&scan["scan"]),
+                text(&scan["source"])
             );
         }
     }
