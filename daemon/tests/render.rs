@@ -156,7 +156,10 @@ fn eval_textures_adds_texture_and_render_rows() {
         "--csv",
         csv.to_str().unwrap(),
     ]);
-    assert!(stdout.contains("textures (64 texels)"), "{stdout}");
+    assert!(
+        stdout.contains("textures (64 texels, every position baked"),
+        "{stdout}"
+    );
     assert!(stdout.contains("orbit-07-camera"), "{stdout}");
     let (header, rows) = csv_rows(&csv);
     let col = |name: &str| header.iter().position(|h| h == name).unwrap();
