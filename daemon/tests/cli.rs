@@ -293,3 +293,46 @@ fn logs_to_a_pipe_carry_no_colour_codes() {
     assert!(stderr.contains("WARN"), "{stderr}");
     assert!(!stderr.contains('\u{1b}'), "ANSI escapes in {stderr:?}");
 }
+
+#[test]
+fn estimate_with_refine_writes_confidence_maps_and_records_the_fit() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scan = tmp.path().join("scan");
+    simulate(&scan);
+    let weights = weights_dir(tmp.path(), 5);
+    let o = matscan(&[
+        "estimate",
+        scan.to_str().unwrap(),
+        "--weights",
+        weights.to_str().unwrap(),
+        "--refine",
+        "3",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = std::fs::read_to_string(scan.join("estimate/result.toml")).unwrap();
+    let result = matscan_estimate::ResultFile::parse(&text).unwrap();
+    let refine = result.refine.expect("result.toml records the refinement");
+    assert_eq!(refine.iterations, 3);
+    assert_eq!(refine.fitted, ["basecolor", "roughness", "metallic"]);
+    assert!(refine.kept.contains_key("transmission") && refine.kept.contains_key("subsurface"));
+    assert!(refine.stops.values().sum::<u64>() > 0, "{:?}", refine.stops);
+    let position = &result.reference_position;
+    for param in ["basecolor", "roughness", "metallic"] {
+        let path = scan.join(format!("estimate/{position}/{param}_confidence.exr"));
+        let map = matscan_scan::image_io::read_scalar_exr(&path)
+            .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        assert!(
+            map.data
+                .iter()
+                .all(|v| v.is_finite() && (0.0..=1.0).contains(v)),
+            "{param} confidence outside [0, 1]"
+        );
+        assert!(
+            map.data.iter().any(|v| *v > 0.0),
+            "{param}: no pixel pinned by the photos"
+        );
+    }
+    assert!(!scan
+        .join(format!("estimate/{position}/transmission_confidence.exr"))
+        .exists());
+}
