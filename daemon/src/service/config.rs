@@ -834,6 +834,21 @@ mod tests {
     }
 
     #[test]
+    fn the_packaged_example_config_is_valid() {
+        let text = include_str!("../../../packaging/matscan.toml");
+        let c = Config::parse(text, Path::new("packaging/matscan.toml")).unwrap();
+        assert!(matches!(c.rig, RigChoice::Simulated(_)));
+        assert!(c.profiles.contains_key("opaque"));
+        // With its commented lines switched on, too.
+        let on = text
+            .replace("# socket_group", "socket_group")
+            .replace("# footswitch", "footswitch");
+        let c = Config::parse(&on, Path::new("packaging/matscan.toml")).unwrap();
+        assert_eq!(c.socket_group.as_deref(), Some("scanner"));
+        assert!(c.rig.has_footswitch());
+    }
+
+    #[test]
     fn minimal_config_takes_the_documented_defaults() {
         let c = parse("rig = \"simulated\"").unwrap();
         assert_eq!(c.socket, PathBuf::from(DEFAULT_SOCKET));
