@@ -96,6 +96,10 @@ pub struct CheckReport {
     pub positions: Vec<PositionCheck>,
     /// One line per failed check; empty when everything passed.
     pub problems: Vec<String>,
+    /// Some position's mesh silhouette misses the photographed object
+    /// (IoU below `min_iou`): the mesh or the pose is wrong for these
+    /// photos, so no per-pixel estimate from them can be trusted.
+    pub geometry_mismatch: bool,
 }
 
 impl CheckReport {
@@ -202,6 +206,7 @@ pub fn check(
     let camera = &manifest.camera;
     let mut positions = Vec::new();
     let mut problems = Vec::new();
+    let mut geometry_mismatch = false;
     for position in &manifest.positions {
         let pc =
             calibration
@@ -262,6 +267,7 @@ pub fn check(
         };
         if let Some(s) = &silhouette {
             if s.iou < options.min_iou {
+                geometry_mismatch = true;
                 problems.push(format!(
                     "position `{}`: the mesh's silhouette overlaps the photographed object by IoU {:.3} (< {}): check the pose and the mesh",
                     position.name, s.iou, options.min_iou
@@ -322,5 +328,6 @@ pub fn check(
     Ok(CheckReport {
         positions,
         problems,
+        geometry_mismatch,
     })
 }

@@ -33,7 +33,7 @@ pub struct ExportArgs {
 
 /// Runs `matscan export`.
 pub fn run(args: &ExportArgs) -> Result<()> {
-    let estimate = args.scan.join("estimate");
+    let estimate = args.scan.join(matscan_estimate::output::ESTIMATE_DIR);
     if !estimate.is_dir() {
         bail!(
             "{}: no estimate; run `matscan estimate --every-position {}` first",

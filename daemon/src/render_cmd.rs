@@ -120,7 +120,7 @@ pub fn true_textures(bundle: &Bundle, like: &BakedTextures) -> Result<Option<Bak
 /// The estimate's reference position (from `result.toml`), else the
 /// manifest's first position.
 pub fn reference_position(bundle: &Bundle, estimate_dir: &Path) -> Result<String> {
-    let path = estimate_dir.join("result.toml");
+    let path = estimate_dir.join(matscan_estimate::output::RESULT_FILE);
     if let Ok(text) = std::fs::read_to_string(&path) {
         let result =
             ResultFile::parse(&text).with_context(|| format!("parsing {}", path.display()))?;
@@ -156,7 +156,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     let estimate_dir = args
         .estimate
         .clone()
-        .unwrap_or_else(|| args.scan.join("estimate"));
+        .unwrap_or_else(|| args.scan.join(matscan_estimate::output::ESTIMATE_DIR));
     let reference = reference_position(&bundle, &estimate_dir)?;
     let object = ScanObject::new(&bundle, &reference)
         .with_context(|| format!("framing {}", args.scan.display()))?;

@@ -96,7 +96,7 @@ pub fn draw_contact_sheet(scan: &Path, out: &Path) -> Result<()> {
         let mut estimates = Vec::new();
         for param in Param::ALL {
             let path = scan
-                .join("estimate")
+                .join(matscan_estimate::output::ESTIMATE_DIR)
                 .join(&position.name)
                 .join(format!("{param}.exr"));
             if path.exists() {

@@ -11,6 +11,23 @@ fn simulate(out: &Path) {
     simulate_sphere(48, 2, 2, &["--out", out.to_str().unwrap()]);
 }
 
+/// Simulates `tmp/scan` and runs `matscan estimate` on it with small
+/// random networks and `extra` flags; returns the scan and the run.
+fn estimate_fresh_scan(tmp: &Path, extra: &[&str]) -> (std::path::PathBuf, std::process::Output) {
+    let scan = tmp.join("scan");
+    simulate(&scan);
+    let weights = weights_dir(tmp, 5);
+    let mut args = vec![
+        "estimate",
+        scan.to_str().unwrap(),
+        "--weights",
+        weights.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    let o = matscan(&args);
+    (scan, o)
+}
+
 #[test]
 fn demo_captures_through_the_daemon_estimates_and_prints_errors_and_timings() {
     let tmp = tempfile::tempdir().unwrap();
@@ -63,17 +80,7 @@ fn demo_captures_through_the_daemon_estimates_and_prints_errors_and_timings() {
 #[test]
 fn estimate_writes_the_contract_folder_and_reports_each_parameter() {
     let tmp = tempfile::tempdir().unwrap();
-    let scan = tmp.path().join("scan");
-    simulate(&scan);
-    let weights = weights_dir(tmp.path(), 5);
-    let o = matscan(&[
-        "estimate",
-        scan.to_str().unwrap(),
-        "--weights",
-        weights.to_str().unwrap(),
-        "--given",
-        "subsurface=0",
-    ]);
+    let (scan, o) = estimate_fresh_scan(tmp.path(), &["--given", "subsurface=0"]);
     let out = stdout(&o);
     assert!(
         o.status.success(),
@@ -297,17 +304,7 @@ fn logs_to_a_pipe_carry_no_colour_codes() {
 #[test]
 fn estimate_with_refine_writes_confidence_maps_and_records_the_fit() {
     let tmp = tempfile::tempdir().unwrap();
-    let scan = tmp.path().join("scan");
-    simulate(&scan);
-    let weights = weights_dir(tmp.path(), 5);
-    let o = matscan(&[
-        "estimate",
-        scan.to_str().unwrap(),
-        "--weights",
-        weights.to_str().unwrap(),
-        "--refine",
-        "3",
-    ]);
+    let (scan, o) = estimate_fresh_scan(tmp.path(), &["--refine", "3"]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let text = std::fs::read_to_string(scan.join("estimate/result.toml")).unwrap();
     let result = matscan_estimate::ResultFile::parse(&text).unwrap();

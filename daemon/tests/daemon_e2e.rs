@@ -176,7 +176,7 @@ fn with_busy_queue_presses_wait_their_turn_and_each_gets_its_own_scan() {
 #[test]
 fn the_socket_goes_to_socket_group_and_an_unknown_group_is_refused_naming_it() {
     use std::os::unix::fs::MetadataExt;
-    let group = matscan::service::server::own_group_name().expect("this process's group");
+    let group = daemon_support::own_group_name().expect("this process's group");
     let gid = matscan::service::server::group_id(&group)
         .unwrap()
         .expect("the group exists");

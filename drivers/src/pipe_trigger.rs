@@ -62,6 +62,10 @@ impl PipeTrigger {
 }
 
 fn open_pipe(path: &Path, id: &str) -> Result<File, DriverError> {
+    let c = CString::new(path.as_os_str().as_bytes()).map_err(|_| DriverError::InvalidSetting {
+        device: id.to_string(),
+        reason: "the path holds a NUL byte".into(),
+    })?;
     match std::fs::symlink_metadata(path) {
         Ok(meta) if meta.file_type().is_fifo() => {}
         Ok(_) => {
@@ -74,12 +78,6 @@ fn open_pipe(path: &Path, id: &str) -> Result<File, DriverError> {
             })
         }
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
-            let c = CString::new(path.as_os_str().as_bytes()).map_err(|_| {
-                DriverError::InvalidSetting {
-                    device: id.to_string(),
-                    reason: "the path holds a NUL byte".into(),
-                }
-            })?;
             // SAFETY: a valid NUL-terminated path.
             if unsafe { libc::mkfifo(c.as_ptr(), 0o660) } != 0 {
                 return Err(DriverError::io(
@@ -91,10 +89,6 @@ fn open_pipe(path: &Path, id: &str) -> Result<File, DriverError> {
         }
         Err(e) => return Err(DriverError::io(id, "looking at the named pipe", e)),
     }
-    let c = CString::new(path.as_os_str().as_bytes()).map_err(|_| DriverError::InvalidSetting {
-        device: id.to_string(),
-        reason: "the path holds a NUL byte".into(),
-    })?;
     // Read-write: opening does not wait for a writer, and the last writer's
     // close is no end-of-file.
     // SAFETY: a valid NUL-terminated path; the fd is owned by the File.

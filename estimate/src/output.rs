@@ -24,6 +24,10 @@ use std::path::{Path, PathBuf};
 
 /// Value of `format` in `result.toml`.
 pub const RESULT_FORMAT: &str = "matscan-estimate/1";
+/// The estimate's folder in a scan (the contract's `estimate/`).
+pub const ESTIMATE_DIR: &str = "estimate";
+/// The estimate's record in its folder.
+pub const RESULT_FILE: &str = "result.toml";
 
 /// A parameter map in the reference image, values in [0, 1].
 #[derive(Clone, Debug, PartialEq)]
@@ -223,7 +227,7 @@ pub fn write_estimate(
         }
     }
     let text = toml::to_string(result)?;
-    let toml_path = pending.path().join("result.toml");
+    let toml_path = pending.path().join(RESULT_FILE);
     std::fs::write(&toml_path, text).map_err(io(&toml_path))?;
     let staged = pending.publish()?;
     replace(&staged, target, &parent, name, pid)

@@ -307,7 +307,10 @@ pub fn estimate(
         metrics,
         refine: tally.summary(&options.refine, &plan),
     };
-    let out = options.out.clone().unwrap_or_else(|| scan.join("estimate"));
+    let out = options
+        .out
+        .clone()
+        .unwrap_or_else(|| scan.join(crate::output::ESTIMATE_DIR));
     write_estimate(&out, &positions, &result)?;
     Ok(EstimateReport { out, result })
 }

@@ -133,6 +133,7 @@ fn calib_check_passes_every_test_on_a_white_diffuse_simulated_scan() {
     )
     .unwrap();
     assert!(report.passed(), "{:?}", report.problems);
+    assert!(!report.geometry_mismatch);
     for p in &report.positions {
         assert!(p.silhouette.as_ref().unwrap().iou >= 0.98);
         for l in &p.lights {

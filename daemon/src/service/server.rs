@@ -582,25 +582,18 @@ pub fn capture_info(scan: &Path) -> CaptureInfo {
 /// interrupted worker left unestimated. Older scans without one had their
 /// estimate fail or refused, and stay as they are.
 pub fn unestimated_tail(scans: &Path) -> Vec<(PathBuf, CaptureInfo)> {
+    use matscan_estimate::output::{ESTIMATE_DIR, RESULT_FILE};
     let mut numbered: Vec<(u64, PathBuf)> = std::fs::read_dir(scans)
         .into_iter()
         .flatten()
         .flatten()
-        .filter_map(|e| {
-            let n = e
-                .file_name()
-                .to_str()?
-                .strip_prefix("scan-")?
-                .parse()
-                .ok()?;
-            Some((n, e.path()))
-        })
+        .filter_map(|e| Some((scan_number(&e.file_name())?, e.path())))
         .filter(|(_, p)| p.join(matscan_scan::bundle::MANIFEST_FILE).is_file())
         .collect();
     numbered.sort();
     let start = numbered
         .iter()
-        .rposition(|(_, p)| p.join("estimate").join("result.toml").is_file())
+        .rposition(|(_, p)| p.join(ESTIMATE_DIR).join(RESULT_FILE).is_file())
         .map_or(0, |i| i + 1);
     numbered
         .into_iter()
@@ -612,17 +605,17 @@ pub fn unestimated_tail(scans: &Path) -> Vec<(PathBuf, CaptureInfo)> {
         .collect()
 }
 
+/// N of a published scan's folder name `scan-NNNN`.
+fn scan_number(name: &std::ffi::OsStr) -> Option<u64> {
+    name.to_str()?.strip_prefix("scan-")?.parse().ok()
+}
+
 /// `scans/scan-NNNN`, one past the highest number there.
 pub fn next_scan_path(scans: &Path) -> Result<PathBuf, ServerError> {
     let mut highest = 0u64;
     let entries = std::fs::read_dir(scans).map_err(io_err(scans, "listing the scans folder"))?;
     for entry in entries.flatten() {
-        let name = entry.file_name();
-        let n = name
-            .to_str()
-            .and_then(|n| n.strip_prefix("scan-"))
-            .and_then(|n| n.parse::<u64>().ok());
-        if let Some(n) = n {
+        if let Some(n) = scan_number(&entry.file_name()) {
             highest = highest.max(n);
         }
     }
@@ -689,31 +682,6 @@ pub fn group_id(name: &str) -> Result<Option<u32>, ServerError> {
             e => return Err(lookup(std::io::Error::from_raw_os_error(e))),
         }
     }
-}
-
-/// The name of the calling process's group (for tests and messages).
-pub fn own_group_name() -> Option<String> {
-    // SAFETY: getgid cannot fail.
-    let gid = unsafe { libc::getgid() };
-    let mut buf = vec![0u8; 1 << 16];
-    // SAFETY: as in `group_id`.
-    let mut group: libc::group = unsafe { std::mem::zeroed() };
-    let mut result: *mut libc::group = std::ptr::null_mut();
-    let rc = unsafe {
-        libc::getgrgid_r(
-            gid,
-            &mut group,
-            buf.as_mut_ptr().cast(),
-            buf.len(),
-            &mut result,
-        )
-    };
-    if rc != 0 || result.is_null() {
-        return None;
-    }
-    // SAFETY: on success gr_name points into `buf`, NUL-terminated.
-    let name = unsafe { std::ffi::CStr::from_ptr(group.gr_name) };
-    name.to_str().ok().map(str::to_string)
 }
 
 /// Set by SIGTERM and SIGINT once [`install_signal_handlers`] ran.

@@ -69,8 +69,15 @@ pub struct State {
 }
 
 impl State {
-    /// Records a new queued job, asked for by `source`, and returns its id.
-    pub fn enqueue(&mut self, profile: &str, source: &str) -> u64 {
+    /// Records a new job in `stage`, its first event made from its id by
+    /// `first_event`; returns the id.
+    fn insert_job(
+        &mut self,
+        profile: &str,
+        source: &str,
+        stage: JobStage,
+        first_event: impl FnOnce(u64) -> Value,
+    ) -> u64 {
         self.next_id += 1;
         let id = self.next_id;
         self.jobs.insert(
@@ -79,14 +86,23 @@ impl State {
                 id,
                 profile: profile.to_string(),
                 source: source.to_string(),
-                stage: JobStage::Queued,
-                events: vec![
-                    json!({"event": "queued", "job": id, "profile": profile, "source": source}),
-                ],
+                stage,
+                events: vec![first_event(id)],
                 check: None,
                 estimate: None,
                 processed: false,
             },
+        );
+        id
+    }
+
+    /// Records a new queued job, asked for by `source`, and returns its id.
+    pub fn enqueue(&mut self, profile: &str, source: &str) -> u64 {
+        let id = self.insert_job(
+            profile,
+            source,
+            JobStage::Queued,
+            |id| json!({"event": "queued", "job": id, "profile": profile, "source": source}),
         );
         self.queue.push_back(id);
         self.prune();
@@ -97,26 +113,17 @@ impl State {
     /// finished (the daemon stopped or crashed meanwhile), to be handed to
     /// the worker again; returns its job id.
     pub fn recovered(&mut self, scan: PathBuf, profile: &str) -> u64 {
-        self.next_id += 1;
-        let id = self.next_id;
         let summary = json!({"profile": profile, "recovered": true});
-        self.jobs.insert(
-            id,
-            JobRecord {
-                id,
-                profile: profile.to_string(),
-                source: "restart".to_string(),
-                stage: JobStage::Captured {
-                    scan: scan.clone(),
-                    summary: summary.clone(),
-                },
-                events: vec![json!({"event": "done", "job": id, "scan": scan, "summary": summary})],
-                check: None,
-                estimate: None,
-                processed: false,
-            },
-        );
-        id
+        let stage = JobStage::Captured {
+            scan: scan.clone(),
+            summary: summary.clone(),
+        };
+        self.insert_job(
+            profile,
+            "restart",
+            stage,
+            |id| json!({"event": "done", "job": id, "scan": scan, "summary": summary}),
+        )
     }
 
     pub fn event(&mut self, id: u64, event: Value) {

@@ -201,13 +201,7 @@ pub fn check_scan(scan: &Path) -> Verdict {
             &CheckOptions::default(),
         )
         .map_err(|e| e.to_string())?;
-        let min_iou = CheckOptions::default().min_iou;
-        let geometry = report
-            .positions
-            .iter()
-            .filter_map(|p| p.silhouette.as_ref())
-            .any(|s| s.iou < min_iou);
-        Ok((report.problems, geometry))
+        Ok((report.problems, report.geometry_mismatch))
     };
     match run() {
         Ok((problems, _)) if problems.is_empty() => Verdict::Passed,

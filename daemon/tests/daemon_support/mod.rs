@@ -181,3 +181,30 @@ pub fn list(dir: &Path, keep: impl Fn(&str) -> bool) -> Vec<PathBuf> {
     v.sort();
     v
 }
+
+/// The name of this process's group (the socket_group test gives the
+/// socket to it, the one group the daemon surely belongs to).
+pub fn own_group_name() -> Option<String> {
+    // SAFETY: getgid cannot fail.
+    let gid = unsafe { libc::getgid() };
+    let mut buf = vec![0u8; 1 << 16];
+    // SAFETY: `group` and `result` are valid out-pointers, `buf` is
+    // writable for its length.
+    let mut group: libc::group = unsafe { std::mem::zeroed() };
+    let mut result: *mut libc::group = std::ptr::null_mut();
+    let rc = unsafe {
+        libc::getgrgid_r(
+            gid,
+            &mut group,
+            buf.as_mut_ptr().cast(),
+            buf.len(),
+            &mut result,
+        )
+    };
+    if rc != 0 || result.is_null() {
+        return None;
+    }
+    // SAFETY: on success gr_name points into `buf`, NUL-terminated.
+    let name = unsafe { std::ffi::CStr::from_ptr(group.gr_name) };
+    name.to_str().ok().map(str::to_string)
+}
