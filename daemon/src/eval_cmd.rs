@@ -17,6 +17,10 @@
 //! Run time is the estimate's own `total_s` (load, calibration, inputs,
 //! weights, networks, metrics; writing excluded), as a median per scan.
 //!
+//! `--dependencies truth` evaluates each network on its own, fed the truth
+//! of what it reads, as the thesis's tables were measured (see
+//! `eval_independent`); the default runs the chained estimate a user gets.
+//!
 //! Boundaries: reads scans, calls `matscan_estimate::estimate` into a
 //! scratch folder, prints; changes no scan.
 
@@ -31,7 +35,7 @@ use matscan_estimate::metrics::error_metrics;
 use matscan_estimate::views::select_views;
 use matscan_estimate::weights::EMBEDDED;
 use matscan_estimate::{
-    cpu_device, estimate, EstimateOptions, ModelSource, ParamKind, References, ViewFilter,
+    cpu_device, estimate, EstimateOptions, ModelSource, Models, ParamKind, References, ViewFilter,
 };
 use matscan_scan::{Bundle, Param, TruthImage, TruthMap};
 use std::collections::BTreeMap;
@@ -79,8 +83,23 @@ pub struct EvalArgs {
     /// has them).
     #[arg(long)]
     pub per_scene: bool,
+    /// Where each network's dependencies come from.
+    #[arg(long, value_enum, default_value_t = DependencySource::Estimated)]
+    pub dependencies: DependencySource,
     #[command(flatten)]
     pub textures: crate::eval_texture::TextureArgs,
+}
+
+/// What the networks that read other parameters are fed.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum DependencySource {
+    /// The other networks' estimates: the product's chained path (what
+    /// `matscan estimate` does; the thesis's section 4.8).
+    #[default]
+    Estimated,
+    /// The truth: each network on its own, as the thesis measured its
+    /// Tables 4.1 to 4.3 (section 4.5); run time is the networks' alone.
+    Truth,
 }
 
 /// The scans named by `paths`: each a scan folder itself, or a folder of
@@ -132,7 +151,7 @@ pub fn scans_in(dir: &Path) -> Result<Vec<PathBuf>> {
 }
 
 /// The object mask of `position`'s truth; `None` without one.
-fn truth_mask(bundle: &Bundle, position: &str) -> Result<Option<Vec<bool>>> {
+pub(crate) fn truth_mask(bundle: &Bundle, position: &str) -> Result<Option<Vec<bool>>> {
     Ok(match bundle.read_truth(position, &TruthMap::Mask)? {
         Some(m) => m.into_mask().map(|m| m.data),
         None => None,
@@ -141,7 +160,7 @@ fn truth_mask(bundle: &Bundle, position: &str) -> Result<Option<Vec<bool>>> {
 
 /// One parameter's truth at one position: values (pixel-major) and
 /// channels per pixel; `None` without a truth map for it.
-fn truth_values(
+pub(crate) fn truth_values(
     bundle: &Bundle,
     position: &str,
     kind: ParamKind,
@@ -316,12 +335,11 @@ pub fn run(args: &EvalArgs) -> Result<()> {
     if let Some(limit) = args.limit {
         scans.truncate(limit);
     }
-    let models = || match &args.weights {
-        Some(dir) => ModelSource::Dir(dir.clone()),
-        None => ModelSource::Embedded,
-    };
     if args.weights.is_none() && EMBEDDED.is_empty() {
         bail!("this build embeds no trained weights; pass --weights DIR");
+    }
+    if args.dependencies == DependencySource::Truth && args.textures.textures.is_some() {
+        bail!("--textures bakes the chained estimate; drop --dependencies truth");
     }
     let baseline_scans = match &args.baseline_from {
         Some(dir) => scans_in(dir)?,
@@ -348,13 +366,102 @@ pub fn run(args: &EvalArgs) -> Result<()> {
             .as_ref()
             .map_or(data_label.clone(), |p| p.display().to_string())
     );
-    // Every scan's usable views in order, calibrated once for all
-    // configurations.
-    let views_of = views_of_scans(&scans, &args.views)?;
+    let _ = writeln!(
+        table,
+        "dependencies: {}",
+        match args.dependencies {
+            DependencySource::Estimated => {
+                "estimated (chained, as `matscan estimate`); the thesis's figures were \
+                 measured with truth dependencies (--dependencies truth)"
+            }
+            DependencySource::Truth => {
+                "truth (each network on its own, as the thesis's Tables 4.1 to 4.3)"
+            }
+        }
+    );
+    let configurations = match args.dependencies {
+        DependencySource::Estimated => {
+            // Every scan's usable views in order, calibrated once for all
+            // configurations.
+            let views_of = views_of_scans(&scans, &args.views)?;
+            chained_configurations(args, &scans, &views_of, &baseline, &scratch, &device)
+        }
+        DependencySource::Truth => {
+            let models = match &args.weights {
+                Some(dir) => Models::load_dir(dir, &ParamKind::ALL, &device),
+                None => Models::load_embedded(&ParamKind::ALL, &device),
+            }
+            .context("loading the networks")?;
+            independent_configurations(args, &scans, &models, &baseline, &device)
+        }
+    };
+    for (count, c) in args.views.iter().copied().zip(configurations) {
+        let rows = group_rows(&c.results);
+        let label = views_label(count);
+        let overall = rows
+            .last()
+            .filter(|r| r.group == crate::eval_tables::ALL_GROUP);
+        let (what, done) = match args.dependencies {
+            DependencySource::Estimated => ("per scan", "estimated"),
+            DependencySource::Truth => ("of networks per scan, truth dependencies", "evaluated"),
+        };
+        let _ = writeln!(
+            table,
+            "\n{label}: median {:.2} s {what} ({} {done}, {} failed)",
+            overall.map_or(f64::NAN, |r| r.median_seconds),
+            c.results.len(),
+            c.failures.len()
+        );
+        if let Some(all) = overall {
+            write_overall(&mut table, all, &thesis);
+        }
+        write_group_tables(&mut table, &rows);
+        if args.per_scene {
+            write_scene_table(&mut table, &c.results);
+        }
+        for f in c.failures.iter().take(5) {
+            let _ = writeln!(table, "  failed: {f}");
+        }
+        write_csv_rows(&mut csv, count, &rows, &c.results, &thesis);
+        if let Some(size) = args.textures.textures {
+            c.textures.write_table(&mut table, size);
+            c.textures.write_csv(&mut csv, count);
+        }
+    }
+    print!("{table}");
+    if let Some(path) = &args.csv {
+        matscan_scan::atomic::write_atomic(path, csv.as_bytes())
+            .with_context(|| format!("writing {}", path.display()))?;
+        println!("wrote {}", path.display());
+    }
+    Ok(())
+}
+
+/// One view-count configuration's scene results, failures and texture
+/// scores.
+#[derive(Default)]
+struct Configuration {
+    results: Vec<SceneResult>,
+    failures: Vec<String>,
+    textures: crate::eval_texture::TextureTable,
+}
+
+/// Every configuration of `args.views` through the chained estimate.
+fn chained_configurations(
+    args: &EvalArgs,
+    scans: &[PathBuf],
+    views_of: &[Option<Vec<String>>],
+    baseline: &BTreeMap<ParamKind, f64>,
+    scratch: &Path,
+    device: &Device,
+) -> Vec<Configuration> {
+    let models = || match &args.weights {
+        Some(dir) => ModelSource::Dir(dir.clone()),
+        None => ModelSource::Embedded,
+    };
+    let mut out = Vec::with_capacity(args.views.len());
     for &count in &args.views {
-        let mut results = Vec::new();
-        let mut failures = Vec::new();
-        let mut textures = crate::eval_texture::TextureTable::default();
+        let mut c = Configuration::default();
         for (i, scan) in scans.iter().enumerate() {
             let options = EstimateOptions {
                 out: Some(scratch.join(format!("{count}-{i}"))),
@@ -368,59 +475,66 @@ pub fn run(args: &EvalArgs) -> Result<()> {
                 },
                 ..EstimateOptions::default()
             };
+            let textures = &mut c.textures;
             match evaluate_scene_with(
                 scan,
                 models(),
                 &options,
-                &device,
+                device,
                 args.group_by,
-                Some(&baseline),
+                Some(baseline),
                 &mut |bundle, out, reference| {
                     if let Some(size) = args.textures.textures {
                         textures.add_scan(bundle, out, reference, size);
                     }
                 },
             ) {
-                Ok(r) => results.push(r),
-                Err(e) => failures.push(format!("{e:#}")),
+                Ok(r) => c.results.push(r),
+                Err(e) => c.failures.push(format!("{e:#}")),
             }
         }
-        let _ = std::fs::remove_dir_all(&scratch);
-        let rows = group_rows(&results);
-        let label = views_label(count);
-        let overall = rows
-            .last()
-            .filter(|r| r.group == crate::eval_tables::ALL_GROUP);
-        let _ = writeln!(
-            table,
-            "\n{label}: median {:.2} s per scan ({} estimated, {} failed)",
-            overall.map_or(f64::NAN, |r| r.median_seconds),
-            results.len(),
-            failures.len()
-        );
-        if let Some(all) = overall {
-            write_overall(&mut table, all, &thesis);
-        }
-        write_group_tables(&mut table, &rows);
-        if args.per_scene {
-            write_scene_table(&mut table, &results);
-        }
-        for f in failures.iter().take(5) {
-            let _ = writeln!(table, "  failed: {f}");
-        }
-        write_csv_rows(&mut csv, count, &rows, &results, &thesis);
-        if let Some(size) = args.textures.textures {
-            textures.write_table(&mut table, size);
-            textures.write_csv(&mut csv, count);
+        let _ = std::fs::remove_dir_all(scratch);
+        out.push(c);
+    }
+    out
+}
+
+/// Every configuration of `args.views` with each network fed the truth
+/// (see `eval_independent`); each scan is prepared once for all of them.
+fn independent_configurations(
+    args: &EvalArgs,
+    scans: &[PathBuf],
+    models: &Models,
+    baseline: &BTreeMap<ParamKind, f64>,
+    device: &Device,
+) -> Vec<Configuration> {
+    let mut out: Vec<Configuration> = args
+        .views
+        .iter()
+        .map(|_| Configuration::default())
+        .collect();
+    for scan in scans {
+        match crate::eval_independent::evaluate_scene_independent(
+            scan,
+            models,
+            &args.views,
+            device,
+            args.group_by,
+            baseline,
+        ) {
+            Ok(results) => {
+                for (c, r) in out.iter_mut().zip(results) {
+                    c.results.push(r);
+                }
+            }
+            Err(e) => {
+                for c in &mut out {
+                    c.failures.push(format!("{e:#}"));
+                }
+            }
         }
     }
-    print!("{table}");
-    if let Some(path) = &args.csv {
-        matscan_scan::atomic::write_atomic(path, csv.as_bytes())
-            .with_context(|| format!("writing {}", path.display()))?;
-        println!("wrote {}", path.display());
-    }
-    Ok(())
+    out
 }
 
 /// The `ALL` row per parameter beside the baseline and the thesis.

@@ -19,6 +19,7 @@ mod cli;
 mod demo;
 mod estimate_cmd;
 mod eval_cmd;
+mod eval_independent;
 mod eval_tables;
 mod eval_texture;
 mod export_cmd;

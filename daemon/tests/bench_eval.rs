@@ -167,3 +167,73 @@ fn eval_tables_group_scans_by_kind_and_overall_weighs_every_scene() {
         assert!(num(all, "baseline_mad").is_finite());
     }
 }
+
+#[test]
+fn truth_fed_eval_matches_the_chained_one_for_networks_without_dependencies() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scan = tmp.path().join("multimat");
+    simulate(&scan, "multimat", "6");
+    let run = |deps: &str| -> Vec<(String, f64)> {
+        let csv_path = tmp.path().join(format!("{deps}.csv"));
+        let stdout = matscan_ok(&[
+            "eval",
+            scan.to_str().unwrap(),
+            "--views",
+            "0",
+            "--dependencies",
+            deps,
+            "--csv",
+            csv_path.to_str().unwrap(),
+        ]);
+        assert!(
+            stdout.contains(&format!("dependencies: {deps}")),
+            "{stdout}"
+        );
+        let csv = std::fs::read_to_string(&csv_path).unwrap();
+        let lines: Vec<&str> = csv.lines().collect();
+        let header = fields(lines[0]);
+        let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+        lines[1..]
+            .iter()
+            .map(|l| fields(l))
+            .filter(|r| r[col("table")] == "scene")
+            .map(|r| (r[col("param")].to_string(), r[col("mad")].parse().unwrap()))
+            .collect()
+    };
+    let chained = run("estimated");
+    let truth = run("truth");
+    let mad = |rows: &[(String, f64)], p: &str| -> f64 {
+        rows.iter()
+            .find(|(q, _)| q == p)
+            .unwrap_or_else(|| panic!("no {p} row in {rows:?}"))
+            .1
+    };
+    for p in [
+        "basecolor",
+        "roughness",
+        "metallic",
+        "transmission",
+        "subsurface",
+    ] {
+        let v = mad(&truth, p);
+        assert!((0.0..=1.0).contains(&v), "{p}: {v}");
+    }
+    // Metallic and transmission read no other parameter: the same inputs,
+    // the same network, the same error, whichever way dependencies come.
+    for p in ["metallic", "transmission"] {
+        assert!((mad(&chained, p) - mad(&truth, p)).abs() < 1e-9, "{p}");
+    }
+    // Basecolor reads four estimated parameters and the illumination.
+    assert!((mad(&chained, "basecolor") - mad(&truth, "basecolor")).abs() > 1e-6);
+
+    let refused = daemon_support::matscan(&[
+        "eval",
+        scan.to_str().unwrap(),
+        "--dependencies",
+        "truth",
+        "--textures",
+    ]);
+    assert!(!refused.status.success());
+    let stderr = String::from_utf8_lossy(&refused.stderr);
+    assert!(stderr.contains("--textures"), "{stderr}");
+}

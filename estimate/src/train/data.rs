@@ -51,6 +51,8 @@ pub struct ViewData {
 pub struct SceneData {
     /// The bundle folder.
     pub path: PathBuf,
+    /// The reference position: the camera image everything is in.
+    pub reference: String,
     /// Image width.
     pub width: usize,
     /// Image height.
@@ -253,6 +255,7 @@ pub fn load_scene(path: &Path, kind: ParamKind) -> Result<Option<SceneData>, Tra
     };
     Ok(Some(SceneData {
         path: path.to_path_buf(),
+        reference,
         width: inputs.width,
         height: inputs.height,
         views,

@@ -34,6 +34,7 @@
 
 pub mod checkpoint;
 pub mod data;
+pub mod independent;
 pub mod loss;
 pub mod plot;
 
