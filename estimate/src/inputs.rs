@@ -378,13 +378,6 @@ fn fill(
         I::CosNormalLight => out.extend(p.cos_nl.iter().map(|&c| cosine(c))),
         I::CosNormalView => out.extend(p.cos_nv.iter().map(|&c| cosine(c))),
         I::CosViewLight => out.extend(p.cos_vl.iter().map(|&c| cosine(c))),
-        I::CosNormalHalf => out.extend(
-            p.cos_nl
-                .iter()
-                .zip(&p.cos_nv)
-                .zip(&p.cos_vl)
-                .map(|((&nl, &nv), &vl)| cos_normal_half(cosine(nl), cosine(nv), cosine(vl))),
-        ),
         I::WhiteAmbientLuma => constant(out, luma(p.white_ambient)),
         I::WhiteLitDiffLuma => constant(out, luma(p.white_lit) - luma(p.white_ambient)),
         I::WhiteAmbientY => constant(out, ycbcr(p.white_ambient)[0]),
@@ -428,20 +421,6 @@ fn fill(
         }
     }
     Ok(())
-}
-
-/// `n . h` for the half vector `h = (l + v) / |l + v|`, from the three
-/// calibrated cosines: `l . v = cos_nl cos_nv + sin_nl sin_nv cos_vl` (eq.
-/// 3.4's `cos_vl` is the azimuth between the projections), so
-/// `n . h = (cos_nl + cos_nv) / sqrt(2 + 2 l . v)`. Where the light faces
-/// the camera through the surface (`l . v` near -1) the half vector is
-/// undefined; the denominator is floored and the result clamped, so the
-/// channel stays finite and in [-1, 1].
-pub fn cos_normal_half(nl: f32, nv: f32, vl: f32) -> f32 {
-    let sin = |c: f32| (1.0 - c * c).max(0.0).sqrt();
-    let lv = nl * nv + sin(nl) * sin(nv) * vl;
-    let h = (2.0 + 2.0 * lv).max(1.0e-6).sqrt();
-    cosine((nl + nv) / h)
 }
 
 fn cosine(c: f32) -> f32 {
@@ -624,40 +603,6 @@ fn normalised_depth(depth: &[f32], mask: &[f32]) -> Vec<f32> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn the_half_vector_cosine_matches_the_vectors_it_comes_from() {
-        use matscan_calib::angles::{cos_between, cos_vl};
-        let n = glam::DVec3::new(0.1, 0.2, 1.0).normalize();
-        for (v, l) in [
-            (
-                glam::DVec3::new(0.3, -0.2, 1.0),
-                glam::DVec3::new(-0.5, 0.4, 0.8),
-            ),
-            (
-                glam::DVec3::new(1.0, 0.0, 0.2),
-                glam::DVec3::new(0.9, 0.1, 0.3),
-            ),
-            (
-                glam::DVec3::new(0.0, 0.0, 1.0),
-                glam::DVec3::new(0.7, 0.0, 0.7),
-            ),
-        ] {
-            let h = (v.normalize() + l.normalize()).normalize();
-            let want = n.dot(h) as f32;
-            let got = cos_normal_half(
-                cos_between(n, l) as f32,
-                cos_between(n, v) as f32,
-                cos_vl(n, v, l) as f32,
-            );
-            assert!((got - want).abs() < 2e-3, "{got} against {want}");
-        }
-        // The mirror direction: the highlight's centre.
-        assert!((cos_normal_half(0.6, 0.6, -1.0) - 1.0).abs() < 1e-6);
-        // Light straight through the surface towards the camera: finite.
-        let back = cos_normal_half(-1.0, 1.0, 0.0);
-        assert!(back.is_finite() && (-1.0..=1.0).contains(&back));
-    }
 
     #[test]
     fn centring_maps_the_unit_interval_onto_plus_minus_one() {

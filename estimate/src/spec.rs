@@ -66,9 +66,6 @@ pub enum InputChannel {
     CosNormalView,
     /// Cosine of the view-to-light angle.
     CosViewLight,
-    /// Cosine of the normal-to-half-vector angle (beyond the thesis): 1
-    /// where a mirror shows the light, the centre of every specular lobe.
-    CosNormalHalf,
     /// Constant layer: mean luma of the white diffuse reference, ambient only.
     WhiteAmbientLuma,
     /// Constant layer: the reference's mean luma with the light minus without.
