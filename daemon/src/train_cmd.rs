@@ -79,12 +79,6 @@ pub struct TrainArgs {
     /// Steps of the single-view phase (default 20 % of --steps).
     #[arg(long)]
     pub single_steps: Option<usize>,
-    /// Roughness only: the share (0 to 1) of the roughness loss taken as
-    /// plain MSE over the object mask instead of weighted by the
-    /// illumination as the thesis's eq. 3.8 (0, the default); the test loss
-    /// stays eq. 3.8
-    #[arg(long, default_value_t = 0.0)]
-    pub roughness_mask_share: f32,
 }
 
 /// Runs `matscan train`.
@@ -111,13 +105,6 @@ pub fn run(args: &TrainArgs) -> Result<()> {
     config.final_learning_rate = args.final_lr;
     config.stems_steps = args.stems_steps;
     config.single_steps = args.single_steps;
-    if !(0.0..=1.0).contains(&args.roughness_mask_share) {
-        bail!(
-            "--roughness-mask-share {}: expected a share from 0 to 1",
-            args.roughness_mask_share
-        );
-    }
-    config.roughness_mask_share = args.roughness_mask_share;
     config.init = args.init.as_deref().map(|init| match init {
         "embedded" => WeightSource::Embedded,
         path => WeightSource::File(PathBuf::from(path)),

@@ -11,8 +11,6 @@
 //!   mask, plus roughness MSE weighted by `M_illum`, the illumination truth
 //!   max-fused over the sample's views (the thesis fuses the truth with the
 //!   features' max).
-//!   `Batch::with_roughness_mask_share` moves part of that weight to the
-//!   plain mask (a departure from the thesis, off by default).
 //! - Transmission (eq. 3.10): MSE over the mask plus 0.5 times the false
 //!   positive share. The thesis's indicator `[y > 0 and Y = 0]` has no
 //!   gradient, so it is replaced by the hinge `max(y, 0)` where `Y = 0`
@@ -58,8 +56,6 @@ pub struct Batch {
     illum_host: Vec<Vec<f32>>,
     lit_diff: Vec<Vec<f32>>,
     device: Device,
-    /// Share of roughness's term taken over the plain mask (0: eq. 3.8).
-    roughness_mask_share: f32,
 }
 
 fn tensor(data: Vec<f32>, channels: usize, [h, w]: [usize; 2], device: &Device) -> Tensor<4> {
@@ -95,24 +91,7 @@ impl Batch {
             illum_host: sample.illum,
             lit_diff: sample.lit_diff,
             device: device.clone(),
-            roughness_mask_share: 0.0,
         }
-    }
-
-    /// Takes `share` (clamped to [0, 1]) of the roughness term as plain MSE
-    /// over the object mask and the rest weighted by `M_illum` (eq. 3.8,
-    /// `share` 0). Eq. 3.8 spares pixels the lights barely reach, where the
-    /// photos show no highlight; but the MAD users read counts every object
-    /// pixel, and the coarse-to-fine features can carry a material's
-    /// roughness from its lit part into its dim part. Other networks ignore
-    /// it.
-    pub fn with_roughness_mask_share(mut self, share: f32) -> Self {
-        self.roughness_mask_share = if share.is_finite() {
-            share.clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
-        self
     }
 
     fn plane(&self, data: Vec<f32>) -> Tensor<4> {
@@ -192,16 +171,7 @@ impl Batch {
                         None => e,
                     });
                 }
-                let s = self.roughness_mask_share;
-                let rough = if s > 0.0 {
-                    self.weighted_mse(fused.clone(), target.clone(), self.illum_weight())
-                        .mul_scalar(1.0 - s)
-                        + self
-                            .weighted_mse(fused, target, self.mask.clone())
-                            .mul_scalar(s)
-                } else {
-                    self.weighted_mse(fused, target, self.illum_weight())
-                };
+                let rough = self.weighted_mse(fused, target, self.illum_weight());
                 match squared {
                     Some(s) => rough + s.div_scalar(count.max(EPS)),
                     None => rough,
@@ -228,54 +198,4 @@ impl Batch {
 /// Network units to parameter units, unclamped.
 fn unit(t: Tensor<4>) -> Tensor<4> {
     t.add_scalar(1.0).mul_scalar(0.5)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::backend::cpu_device;
-
-    /// Four pixels, the last two unlit; the network is exact on the lit
-    /// ones and off by 0.5 in roughness on the unlit ones.
-    fn roughness_case(device: &Device) -> (Batch, NetOutput) {
-        let n = 4;
-        let illum = vec![1.0, 1.0, 0.0, 0.0];
-        let sample = Sample {
-            size: [1, n],
-            inputs: vec![vec![0.0; ParamKind::Roughness.inputs().len() * n]],
-            view_masks: vec![vec![1.0; n]],
-            illum: vec![illum.clone()],
-            lit_diff: vec![vec![0.0; n]],
-            target: vec![0.5; n],
-            mask: vec![1.0; n],
-        };
-        let batch = Batch::new(ParamKind::Roughness, sample, device);
-        // Network units: unit(y) = (y + 1) / 2.
-        let fused = tensor(vec![0.0, 0.0, 1.0, 1.0], 1, [1, n], device);
-        let per_view = vec![tensor(
-            illum.iter().map(|v| 2.0 * v - 1.0).collect(),
-            1,
-            [1, n],
-            device,
-        )];
-        (batch, NetOutput { fused, per_view })
-    }
-
-    fn value(t: Tensor<1>) -> f32 {
-        t.into_scalar::<f32>()
-    }
-
-    #[test]
-    fn the_thesis_roughness_loss_ignores_unlit_pixels_and_the_mask_share_counts_them() {
-        let device = cpu_device();
-        let (batch, out) = roughness_case(&device);
-        assert!(value(batch.loss(&out)).abs() < 1e-7);
-        let (batch, out) = roughness_case(&device);
-        let half = value(batch.with_roughness_mask_share(0.5).loss(&out));
-        // Half of the masked MSE: 0.5 * (0 + 0 + 0.25 + 0.25) / 4.
-        assert!((half - 0.0625).abs() < 1e-6, "{half}");
-        let (batch, out) = roughness_case(&device);
-        let all = value(batch.with_roughness_mask_share(7.0).loss(&out));
-        assert!((all - 0.125).abs() < 1e-6, "clamped to 1: {all}");
-    }
 }

@@ -169,11 +169,6 @@ pub struct TrainConfig {
     /// Where the learning rate ends: cosine decay from `learning_rate` at
     /// step 0 to this at the last step; constant (the thesis's) when `None`.
     pub final_learning_rate: Option<f64>,
-    /// Roughness only: the share of its term over the plain object mask
-    /// instead of weighted by illumination (0, eq. 3.8, by default; see
-    /// `loss::Batch::with_roughness_mask_share`). The test loss stays eq.
-    /// 3.8, so runs stay comparable.
-    pub roughness_mask_share: f32,
 }
 
 impl TrainConfig {
@@ -200,7 +195,6 @@ impl TrainConfig {
             max_scenes: None,
             init: None,
             final_learning_rate: None,
-            roughness_mask_share: 0.0,
         }
     }
 
@@ -507,8 +501,7 @@ pub fn train(
             dropout_permille: config.dropout_permille,
         };
         let sample = scene.sample(&views, cut, &mut rng);
-        let batch = Batch::new(config.kind, sample, device)
-            .with_roughness_mask_share(config.roughness_mask_share);
+        let batch = Batch::new(config.kind, sample, device);
         let out = net.forward(&batch.views)?;
         let loss = batch.loss(&out);
         let value = f64::from(loss.clone().into_scalar::<f32>());
