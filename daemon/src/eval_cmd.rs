@@ -395,16 +395,16 @@ pub fn run(args: &EvalArgs) -> Result<()> {
             independent_configurations(args, &scans, &models, &baseline, &device)
         }
     };
+    let (what, done) = match args.dependencies {
+        DependencySource::Estimated => ("per scan", "estimated"),
+        DependencySource::Truth => ("of networks per scan, truth dependencies", "evaluated"),
+    };
     for (count, c) in args.views.iter().copied().zip(configurations) {
         let rows = group_rows(&c.results);
         let label = views_label(count);
         let overall = rows
             .last()
             .filter(|r| r.group == crate::eval_tables::ALL_GROUP);
-        let (what, done) = match args.dependencies {
-            DependencySource::Estimated => ("per scan", "estimated"),
-            DependencySource::Truth => ("of networks per scan, truth dependencies", "evaluated"),
-        };
         let _ = writeln!(
             table,
             "\n{label}: median {:.2} s {what} ({} {done}, {} failed)",

@@ -8,11 +8,11 @@
 //! truth-fed figures are comparable with the thesis's table.
 //!
 //! Run time here is the networks' forward passes only (no calibration or
-//! input assembly, which the scene loader does once per network for every
-//! view count).
+//! input assembly, which the scene loader does once per scan for every
+//! network and view count).
 //!
 //! Boundaries: reads scans; the inputs come from
-//! `matscan_estimate::train::data::load_scene` (the training path, built on
+//! `matscan_estimate::train::data::load_scenes` (the training path, built on
 //! the inference code's input assembly), predictions from
 //! `train::independent::predict`; tables are `eval_cmd`'s.
 
@@ -21,7 +21,7 @@ use crate::eval_tables::{scene_group, GroupBy, SceneResult};
 use anyhow::{Context, Result};
 use burn::tensor::Device;
 use matscan_estimate::metrics::error_metrics;
-use matscan_estimate::train::data::load_scene;
+use matscan_estimate::train::data::load_scenes;
 use matscan_estimate::train::independent::predict;
 use matscan_estimate::{Models, ParamKind};
 use matscan_scan::Bundle;
@@ -54,25 +54,29 @@ pub fn evaluate_scene_independent(
             baseline: BTreeMap::new(),
         })
         .collect();
-    for kind in ParamKind::ALL {
+    let scenes = load_scenes(scan, &ParamKind::ALL)
+        .with_context(|| format!("preparing {} for the networks", scan.display()))?;
+    // Every network's scene is in the same reference image.
+    let Some(reference) = scenes.iter().flatten().next().map(|s| s.reference.clone()) else {
+        return Ok(results);
+    };
+    // The loader has required the truth mask already.
+    let mask = truth_mask(&bundle, &reference)?
+        .with_context(|| format!("{}: no truth mask at {reference}", scan.display()))?;
+    for (kind, scene) in ParamKind::ALL.into_iter().zip(scenes) {
+        let Some(scene) = scene else {
+            continue;
+        };
         let model = models
             .get(kind)
             .with_context(|| format!("no {kind} network loaded"))?;
-        let Some(scene) = load_scene(scan, kind)
-            .with_context(|| format!("preparing {} for the {kind} network", scan.display()))?
-        else {
+        let Some((truth, channels)) = truth_values(&bundle, &reference, kind)? else {
             continue;
         };
-        let Some((truth, channels)) = truth_values(&bundle, &scene.reference, kind)? else {
-            continue;
-        };
-        let mask = match truth_mask(&bundle, &scene.reference)? {
-            Some(m) => m,
-            None => scene.mask.iter().map(|m| *m > 0.5).collect(),
-        };
-        let constant = baseline
-            .get(&kind)
-            .map(|mean| vec![*mean as f32; truth.len()]);
+        // The baseline does not depend on the views.
+        let base = baseline.get(&kind).and_then(|mean| {
+            error_metrics(&vec![*mean as f32; truth.len()], &truth, &mask, channels)
+        });
         for (result, &count) in results.iter_mut().zip(counts) {
             let t = Instant::now();
             let map = predict(&model.net, &scene, count, device)
@@ -84,10 +88,7 @@ pub fn evaluate_scene_independent(
             if let Some(m) = error_metrics(&map.data, &truth, &mask, channels) {
                 result.metrics.insert(kind, m);
             }
-            if let Some(b) = constant
-                .as_deref()
-                .and_then(|c| error_metrics(c, &truth, &mask, channels))
-            {
+            if let Some(b) = base {
                 result.baseline.insert(kind, b);
             }
         }

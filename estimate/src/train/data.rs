@@ -126,6 +126,12 @@ fn unit(v: f32) -> f32 {
 /// Reads one bundle and prepares it for `kind`. `Ok(None)` when the scene
 /// has no view this network uses (transmission without a backlit capture).
 pub fn load_scene(path: &Path, kind: ParamKind) -> Result<Option<SceneData>, TrainError> {
+    Ok(load_scenes(path, &[kind])?.pop().flatten())
+}
+
+/// [`load_scene`] for each of `kinds`, in order, reading, calibrating and
+/// assembling the bundle once for all of them.
+pub fn load_scenes(path: &Path, kinds: &[ParamKind]) -> Result<Vec<Option<SceneData>>, TrainError> {
     let device: Device = crate::backend::cpu_device();
     let bundle = Bundle::open(path)?;
     let calibration = calibrate_bundle(&bundle, &CalibOptions::default())?;
@@ -150,7 +156,6 @@ pub fn load_scene(path: &Path, kind: ParamKind) -> Result<Option<SceneData>, Tra
     let transmission = scalar_truth(&bundle, &reference, Param::Transmission)?;
     let subsurface = scalar_truth(&bundle, &reference, Param::Subsurface)?;
     let roughness = scalar_truth(&bundle, &reference, Param::Roughness)?;
-
     // Illumination truth per view, in the reference image.
     let mut illum_all = Vec::with_capacity(inputs.views.len());
     for planes in &inputs.views {
@@ -197,71 +202,74 @@ pub fn load_scene(path: &Path, kind: ParamKind) -> Result<Option<SceneData>, Tra
         roughness: Some(&roughness),
         illumination: Some(&illum_units),
     };
-    let which: Vec<usize> = (0..inputs.views.len())
-        .filter(|&i| {
-            let v = &inputs.views[i];
-            uses_view(kind, v.has_backlit(), v.has_checker())
-        })
-        .collect();
-    if which.is_empty() {
-        return Ok(None);
-    }
-    let tensors = inputs.tensors(kind, &which, &deps, &device)?;
-    let diff_channel = kind
-        .inputs()
-        .iter()
-        .position(|c| *c == InputChannel::LitSqrtDiffLuma)
-        .or_else(|| {
-            kind.inputs()
-                .iter()
-                .position(|c| *c == InputChannel::LitSqrtDiffY)
-        });
-    let mut views = Vec::with_capacity(which.len());
-    for (tensor, &index) in tensors.into_iter().zip(&which) {
-        let input = tensor
-            .into_data()
-            .try_to_vec::<f32>()
-            .map_err(|e| TrainError::Backend(format!("{e:?}")))?;
-        let lit_diff = match diff_channel {
-            Some(c) => input[c * n..(c + 1) * n]
-                .iter()
-                .map(|&v| uncentre(v).powi(2))
-                .collect(),
-            None => vec![0.0; n],
-        };
-        views.push(ViewData {
-            input,
-            mask: inputs.views[index].mask.clone(),
-            illum: illum_all[index].clone(),
-            lit_diff,
-        });
-    }
-    let target = match kind {
-        ParamKind::Roughness => roughness,
-        ParamKind::Metallic => metallic,
-        ParamKind::Transmission => transmission,
-        ParamKind::Subsurface => subsurface,
-        ParamKind::Basecolor => {
-            let Some(TruthImage::Rgb(rgb)) =
-                bundle.read_truth(&reference, &TruthMap::Param(Param::Basecolor))?
-            else {
-                return Err(no_truth("truth basecolor"));
-            };
-            let ycc: Vec<[f32; 3]> = rgb.data.iter().map(|c| ycbcr(c.map(unit))).collect();
-            (0..3)
-                .flat_map(|ch| ycc.iter().map(move |p| unit(p[ch])))
-                .collect()
+    let prepare = |kind: ParamKind| -> Result<Option<SceneData>, TrainError> {
+        let which: Vec<usize> = (0..inputs.views.len())
+            .filter(|&i| {
+                let v = &inputs.views[i];
+                uses_view(kind, v.has_backlit(), v.has_checker())
+            })
+            .collect();
+        if which.is_empty() {
+            return Ok(None);
         }
+        let tensors = inputs.tensors(kind, &which, &deps, &device)?;
+        let diff_channel = kind
+            .inputs()
+            .iter()
+            .position(|c| *c == InputChannel::LitSqrtDiffLuma)
+            .or_else(|| {
+                kind.inputs()
+                    .iter()
+                    .position(|c| *c == InputChannel::LitSqrtDiffY)
+            });
+        let mut views = Vec::with_capacity(which.len());
+        for (tensor, &index) in tensors.into_iter().zip(&which) {
+            let input = tensor
+                .into_data()
+                .try_to_vec::<f32>()
+                .map_err(|e| TrainError::Backend(format!("{e:?}")))?;
+            let lit_diff = match diff_channel {
+                Some(c) => input[c * n..(c + 1) * n]
+                    .iter()
+                    .map(|&v| uncentre(v).powi(2))
+                    .collect(),
+                None => vec![0.0; n],
+            };
+            views.push(ViewData {
+                input,
+                mask: inputs.views[index].mask.clone(),
+                illum: illum_all[index].clone(),
+                lit_diff,
+            });
+        }
+        let target = match kind {
+            ParamKind::Roughness => roughness.clone(),
+            ParamKind::Metallic => metallic.clone(),
+            ParamKind::Transmission => transmission.clone(),
+            ParamKind::Subsurface => subsurface.clone(),
+            ParamKind::Basecolor => {
+                let Some(TruthImage::Rgb(rgb)) =
+                    bundle.read_truth(&reference, &TruthMap::Param(Param::Basecolor))?
+                else {
+                    return Err(no_truth("truth basecolor"));
+                };
+                let ycc: Vec<[f32; 3]> = rgb.data.iter().map(|c| ycbcr(c.map(unit))).collect();
+                (0..3)
+                    .flat_map(|ch| ycc.iter().map(move |p| unit(p[ch])))
+                    .collect()
+            }
+        };
+        Ok(Some(SceneData {
+            path: path.to_path_buf(),
+            reference: reference.clone(),
+            width: inputs.width,
+            height: inputs.height,
+            views,
+            target,
+            mask: mask.clone(),
+        }))
     };
-    Ok(Some(SceneData {
-        path: path.to_path_buf(),
-        reference,
-        width: inputs.width,
-        height: inputs.height,
-        views,
-        target,
-        mask,
-    }))
+    kinds.iter().map(|&kind| prepare(kind)).collect()
 }
 
 /// How a sample is cut.
