@@ -5,11 +5,11 @@
 //! resident memory every 20 captures and the growth from the baseline taken
 //! after 10 warm-up captures.
 
-use matscan::service::config::Config;
-use matscan::service::notify::Notifier;
-use matscan::service::server::Server;
-use matscan::soak::soak;
-use matscan_estimate::{cpu_device, Models, ParamKind};
+use matscan_daemon::service::config::Config;
+use matscan_daemon::service::notify::Notifier;
+use matscan_daemon::service::server::Server;
+use matscan_daemon::soak::soak;
+use matscan_estimate::{cpu_device, Models};
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -26,7 +26,7 @@ fn main() -> Result<(), String> {
         .map_err(|e| format!("SIZE: {e}"))?;
     let dir = tempfile::tempdir().map_err(|e| e.to_string())?;
     let weights = dir.path().join("weights");
-    Models::seeded(&ParamKind::ALL, 8, 1, &cpu_device())
+    Models::seeded(&matscan_estimate::PIPELINE_ORDER, 8, 1, &cpu_device())
         .map_err(|e| e.to_string())?
         .save_dir(&weights)
         .map_err(|e| e.to_string())?;

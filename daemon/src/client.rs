@@ -8,36 +8,28 @@
 //!
 //! Boundaries: talks to the socket and prints; no capture logic.
 
-use crate::service::config::DEFAULT_SOCKET;
-use clap::Args;
 use serde_json::{json, Value};
 use std::io::{BufRead, BufReader, Write};
 use std::os::unix::net::UnixStream;
 use std::path::{Path, PathBuf};
 
-#[derive(Debug, Args)]
-pub struct CaptureNowArgs {
+#[derive(Clone, Debug)]
+pub struct CaptureNowOptions {
     /// The daemon's control socket.
-    #[arg(long, default_value = DEFAULT_SOCKET)]
     pub socket: PathBuf,
     /// Follow the capture and print the scan's folder and summary.
-    #[arg(long)]
     pub wait: bool,
     /// Print one JSON object (with `--wait`: `scan` and `summary`).
-    #[arg(long)]
     pub json: bool,
     /// Capture profile (default: the daemon's `default_profile`).
-    #[arg(long)]
     pub profile: Option<String>,
 }
 
-#[derive(Debug, Args)]
-pub struct StatusArgs {
+#[derive(Clone, Debug)]
+pub struct StatusOptions {
     /// The daemon's control socket.
-    #[arg(long, default_value = DEFAULT_SOCKET)]
     pub socket: PathBuf,
     /// Print the daemon's reply as JSON.
-    #[arg(long)]
     pub json: bool,
 }
 
@@ -229,7 +221,7 @@ pub fn request_capture(
 }
 
 /// `matscan capture-now`: prints what happened; returns the exit code.
-pub fn capture_now(args: &CaptureNowArgs) -> u8 {
+pub fn capture_now(args: &CaptureNowOptions) -> u8 {
     let show_progress = args.wait && !args.json;
     let mut progress = |e: &Value| {
         if show_progress && e["event"] == "progress" {
@@ -302,7 +294,7 @@ pub fn fetch_status(socket: &Path) -> Result<Value, ClientError> {
 
 /// `matscan status`: prints the rig, the queue and the last scans; returns
 /// the exit code.
-pub fn status(args: &StatusArgs) -> u8 {
+pub fn status(args: &StatusOptions) -> u8 {
     match fetch_status(&args.socket) {
         Ok(s) if args.json => {
             println!("{s}");

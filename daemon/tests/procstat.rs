@@ -3,7 +3,7 @@
 //! files come and go between the two readings (a unit test in the library
 //! once read 3 threads before and 3 after starting one).
 
-use matscan::procstat::usage;
+use matscan_daemon::procstat::usage;
 
 #[test]
 fn an_opened_file_and_a_started_thread_show_up() {

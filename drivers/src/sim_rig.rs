@@ -2,7 +2,7 @@
 //! scene, for the daemon's end-to-end tests and demos without hardware.
 //!
 //! It is a state machine: the light controller is the real host protocol
-//! talking to the simulated board (`crate::serial::board`) over an
+//! talking to the simulated board (`crate::lights::board`) over an
 //! in-memory line, the projector and the turntable set shared state, and
 //! [`SimCamera::capture`] renders exactly what the board's outputs, the
 //! projector's pattern and the position are at that moment. A sequencer
@@ -15,7 +15,7 @@
 //! but what [`SimDisk`] is asked to.
 
 use crate::error::DriverError;
-use crate::serial::{
+use crate::lights::{
     memory_pair, Board, BoardConfig, BoardFaults, HostConfig, Port, RunningBoard, SerialLights,
 };
 use crate::traits::{

@@ -2,8 +2,9 @@
 //! a [`LightController`], a [`Projector`], a [`Trigger`] and a
 //! [`Positioner`], plus the value types they exchange.
 //!
-//! Boundaries: no device I/O here; the real drivers (`crate::serial`,
-//! `crate::v4l2`, `crate::footswitch`) and the simulated rig implement these.
+//! Boundaries: no device I/O here; the real drivers (`crate::camera`,
+//! `crate::lights`, `crate::projector`, `crate::footswitch`) and the
+//! simulated rig implement these.
 //! Times are on the monotonic clock ([`monotonic_now`]), the clock V4L2
 //! stamps its buffers with, so a light change and a frame can be compared.
 

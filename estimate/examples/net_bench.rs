@@ -16,7 +16,8 @@
 //! GFLOP/s counts the convolutions' multiply-adds as two operations each.
 
 use burn::tensor::{Distribution, Tensor};
-use matscan_estimate::{CpuBackend, NetConfig, ParamKind, ParamNet};
+use matscan_estimate::{CpuBackend, NetConfig, ParamNet};
+use matscan_scan::Param;
 use std::time::Instant;
 
 fn main() {
@@ -28,7 +29,7 @@ fn main() {
 
 struct Options {
     backend: CpuBackend,
-    kinds: Vec<ParamKind>,
+    kinds: Vec<Param>,
     widths: Vec<usize>,
     views: Vec<usize>,
     sizes: Vec<usize>,
@@ -45,7 +46,7 @@ fn list<T>(text: &str, parse: impl Fn(&str) -> Option<T>) -> Result<Vec<T>, Stri
 fn options() -> Result<Options, String> {
     let mut options = Options {
         backend: CpuBackend::Flex,
-        kinds: vec![ParamKind::Transmission],
+        kinds: vec![Param::Transmission],
         widths: vec![32, 64, 128],
         views: vec![1, 3, 9],
         sizes: vec![128, 256, 512],
@@ -63,7 +64,7 @@ fn options() -> Result<Options, String> {
                     other => return Err(format!("unknown backend {other:?}")),
                 }
             }
-            "--kinds" => options.kinds = list(&value()?, ParamKind::from_name)?,
+            "--kinds" => options.kinds = list(&value()?, |s| s.parse::<Param>().ok())?,
             "--widths" => options.widths = list(&value()?, |s| s.parse().ok())?,
             "--views" => options.views = list(&value()?, |s| s.parse().ok())?,
             "--sizes" => options.sizes = list(&value()?, |s| s.parse().ok())?,
@@ -138,7 +139,7 @@ fn run() -> Result<(), String> {
     if options.five {
         let mut total = 0.0;
         let mut flops = 0.0;
-        for kind in ParamKind::ALL {
+        for kind in matscan_estimate::PIPELINE_ORDER {
             let config = NetConfig::shipped(kind);
             let net = ParamNet::new(config, &device);
             let seconds = time_forward(&net, 9, 256)?;

@@ -6,9 +6,10 @@
 //! Progress goes to stderr as plain lines (this is what runs under `nohup`);
 //! the `matscan train` command (daemon's `train_cmd`) shows a progress bar.
 
-use matscan_estimate::backend::training_device;
+use matscan_estimate::cpu_device;
+use matscan_estimate::device::backend::training_device;
 use matscan_estimate::train::{train, Event, TrainConfig};
-use matscan_estimate::{cpu_device, ParamKind};
+use matscan_scan::Param;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -28,7 +29,10 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
             .cloned()
     };
     let need = |key: &str| get(key).ok_or_else(|| format!("{key} is required"));
-    let kind = ParamKind::from_name(&need("--param")?).ok_or("unknown --param")?;
+    let kind = need("--param")?
+        .parse::<Param>()
+        .ok()
+        .ok_or("unknown --param")?;
     let mut config = TrainConfig::new(
         kind,
         PathBuf::from(need("--data")?),

@@ -1,59 +1,48 @@
-//! Inference core: the thesis's five BSDF parameter networks (chapter 3.2)
-//! in burn 0.22, their multi-view fusion and their weight files.
+//! The estimator: from a scan's photos, calibration and mesh to the five
+//! Principled BSDF parameter maps in `estimate/`.
 //!
-//! - [`spec`]: each network's named input and output channels.
-//! - [`blocks`]: input stem, core / core', output stem (inception units).
-//! - [`pyramid`]: padding, the input pyramid, nearest upsampling.
-//! - [`fusion`]: the balanced max-fusion tree over views.
-//! - [`network`]: [`ParamNet`], one parameter network over any number of views.
-//! - [`weights`]: versioned weight files.
-//! - [`backend`]: explicit CPU device choice (flex by default).
-//!
-//! The estimation pipeline, scan to `estimate/`:
-//! - [`views`]: which (position, lit capture) pairs are used.
-//! - [`inputs`]: each network's input tensors from photos and calibration.
-//! - [`plan`]: estimated, given or skipped per parameter; network stages.
-//! - [`models`]: the networks a run uses and their model ids.
-//! - [`pipeline`]: runs it all ([`estimate`]).
-//! - [`metrics`]: MAD, MSE, PSNR against ground truth.
-//! - [`output`]: the atomic `estimate/` folder and `result.toml`.
+//! - [`net`]: the thesis's five parameter networks (chapter 3.2) in burn
+//!   0.22: their channel tables ([`net::spec`]), blocks, input pyramid,
+//!   max-fusion over views, the network, the models a run loads and the
+//!   versioned weight files.
+//! - [`device`]: which backend runs them ([`Backend`]: flex or ndarray on
+//!   the CPU, Vulkan on a GPU).
+//! - [`pipeline`]: scan to `estimate/`: which views are used, each
+//!   network's input tensors, the plan (estimated, given or skipped per
+//!   parameter), the run itself ([`estimate`]), metrics against truth, the
+//!   atomic output folder, and scenes prepared with truth dependencies for
+//!   training and the thesis's independent evaluation.
 //! - [`refine`]: optional per-pixel analysis-by-synthesis fit after the
 //!   networks (basecolor, roughness, metallic) with confidence maps.
+//! - `train` (feature `train`): the trainer of section 3.2.2 and its
+//!   losses, with burn's autodiff and optimizers; the shipped build has
+//!   neither.
 //!
-//! Training: feature `train` adds burn's autodiff and optimizers,
-//! `backend::training_device` and the [`train`](mod@train) module (the
-//! trainer of section 3.2.2 and its losses); the shipped build has neither.
+//! Boundaries: reads scans through `matscan-scan` and calibrates through
+//! `matscan-calib`; the forward model of the refinement is
+//! `matscan-bsdf`'s Principled BSDF, the renderer's own, without linking
+//! the renderer. Crate choices: burn (flex CPU backend by default, ndarray
+//! selectable, wgpu/Vulkan behind `vulkan`): one model definition for
+//! inference, training and every backend; `rayon` for per-pixel work.
 //!
 //! # Performance
 //!
 #![doc = include_str!("../PERFORMANCE.md")]
 
-pub mod backend;
-pub mod blocks;
-pub mod fusion;
-pub mod gpu;
-pub mod inputs;
-pub mod metrics;
-pub mod models;
-pub mod network;
-pub mod output;
+pub mod device;
+pub mod net;
 pub mod pipeline;
-pub mod plan;
-pub mod pyramid;
 pub mod refine;
-pub mod spec;
 #[cfg(feature = "train")]
 pub mod train;
-pub mod views;
-pub mod weights;
 
-pub use backend::{cpu_device, CpuBackend};
-pub use gpu::{gpu_device, gpu_is_built, GpuAdapter, GpuUnavailable};
-pub use models::{ModelSource, Models, ModelsError};
-pub use network::{ConfigError, InputError, NetConfig, NetOutput, ParamNet};
-pub use output::{ResultFile, Status};
-pub use pipeline::{estimate, EstimateError, EstimateOptions, EstimateReport, References};
-pub use plan::{Given, PlanError};
-pub use spec::{InputChannel, OutputChannel, ParamKind};
-pub use views::ViewFilter;
-pub use weights::{WeightSource, WeightsError};
+pub use device::backend::{cpu_device, Backend, BackendError, CpuBackend};
+pub use device::gpu::{gpu_device, gpu_is_built, GpuAdapter, GpuUnavailable};
+pub use net::models::{ModelSource, Models, ModelsError};
+pub use net::network::{ConfigError, InputError, NetConfig, NetOutput, ParamNet};
+pub use net::spec::{InputChannel, NetworkSpec, OutputChannel, PIPELINE_ORDER};
+pub use net::weights::{WeightSource, WeightsError};
+pub use pipeline::output::{ResultFile, Status};
+pub use pipeline::plan::{Given, PlanError};
+pub use pipeline::run::{estimate, EstimateError, EstimateOptions, EstimateReport, References};
+pub use pipeline::views::ViewFilter;

@@ -2,12 +2,14 @@
 //! output, and numerical safety under extreme inputs.
 
 use burn::tensor::{Tensor, TensorData};
-use matscan_estimate::{cpu_device, InputError, NetConfig, NetOutput, ParamKind, ParamNet};
+use matscan_estimate::NetworkSpec;
+use matscan_estimate::{cpu_device, InputError, NetConfig, NetOutput, ParamNet};
+use matscan_scan::Param;
 use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 
-fn net(kind: ParamKind, width: usize) -> ParamNet {
+fn net(kind: Param, width: usize) -> ParamNet {
     let config = NetConfig::new(kind, width).expect("valid width");
     ParamNet::new(config, &cpu_device())
 }
@@ -17,7 +19,7 @@ fn tensor(values: Vec<f32>, shape: [usize; 4]) -> Tensor<4> {
 }
 
 /// `count` views of uniform values in [-1, 1], mask channel (0) in {0, 1}.
-fn random_views(kind: ParamKind, count: usize, h: usize, w: usize, seed: u64) -> Vec<Tensor<4>> {
+fn random_views(kind: Param, count: usize, h: usize, w: usize, seed: u64) -> Vec<Tensor<4>> {
     let mut rng = Pcg64::seed_from_u64(seed);
     let c = kind.inputs().len();
     (0..count)
@@ -69,14 +71,14 @@ fn outputs_have_exactly_the_input_size() {
         (1, 1),
         (16, 17),
     ] {
-        for kind in [ParamKind::Transmission, ParamKind::Roughness] {
+        for kind in [Param::Transmission, Param::Roughness] {
             let network = net(kind, 4);
             let views = random_views(kind, 2, h, w, 1);
             let out = network.forward(&views).expect("valid views");
             let fused = kind.fused_outputs().len();
             assert_eq!(out.fused.dims(), [1, fused, h, w], "{kind} at {h}x{w}");
             let per_view: Vec<[usize; 4]> = out.per_view.iter().map(|t| t.dims()).collect();
-            let expected = if kind == ParamKind::Roughness {
+            let expected = if kind == Param::Roughness {
                 vec![[1, 1, h, w]; 2]
             } else {
                 Vec::new()
@@ -88,7 +90,7 @@ fn outputs_have_exactly_the_input_size() {
 
 #[test]
 fn every_network_runs_one_and_nine_views() {
-    for kind in ParamKind::ALL {
+    for kind in matscan_estimate::PIPELINE_ORDER {
         let network = net(kind, 8);
         for count in [1, 9] {
             let views = random_views(kind, count, 24, 40, 2);
@@ -96,11 +98,7 @@ fn every_network_runs_one_and_nine_views() {
             assert_eq!(out.fused.dims()[1], kind.fused_outputs().len());
             assert_eq!(
                 out.per_view.len(),
-                if kind == ParamKind::Roughness {
-                    count
-                } else {
-                    0
-                }
+                if kind == Param::Roughness { count } else { 0 }
             );
             assert_finite(&out, &format!("{kind}, {count} views"));
         }
@@ -110,7 +108,7 @@ fn every_network_runs_one_and_nine_views() {
 #[test]
 fn permuting_the_views_leaves_every_output_bit_identical() {
     let mut rng = Pcg64::seed_from_u64(3);
-    for kind in [ParamKind::Transmission, ParamKind::Roughness] {
+    for kind in [Param::Transmission, Param::Roughness] {
         let network = net(kind, 8);
         for count in 1..=5usize {
             let views = random_views(kind, count, 40, 24, 10 + count as u64);
@@ -149,7 +147,7 @@ fn permuting_the_views_leaves_every_output_bit_identical() {
 
 #[test]
 fn fusion_lets_every_view_see_the_others() {
-    let kind = ParamKind::Transmission;
+    let kind = Param::Transmission;
     let network = net(kind, 8);
     let views = random_views(kind, 2, 32, 32, 4);
     let alone = network.forward(&views[..1]).expect("valid views");
@@ -164,7 +162,7 @@ fn fusion_lets_every_view_see_the_others() {
 
 #[test]
 fn roughness_fuses_one_half_and_keeps_illumination_per_view() {
-    let kind = ParamKind::Roughness;
+    let kind = Param::Roughness;
     let network = net(kind, 8);
     let views = random_views(kind, 3, 32, 20, 5);
     let out = network.forward(&views).expect("valid views");
@@ -184,7 +182,7 @@ fn roughness_fuses_one_half_and_keeps_illumination_per_view() {
 type Mask<'a> = &'a dyn Fn(usize, usize) -> f32;
 
 /// Views of one value everywhere except the mask.
-fn filled(kind: ParamKind, h: usize, w: usize, mask: Mask, value: f32) -> Tensor<4> {
+fn filled(kind: Param, h: usize, w: usize, mask: Mask, value: f32) -> Tensor<4> {
     let c = kind.inputs().len();
     let mut data = vec![value; c * h * w];
     for y in 0..h {
@@ -217,7 +215,7 @@ fn extreme_inputs_give_finite_outputs() {
         ("minus infinite", f32::NEG_INFINITY),
         ("NaN", f32::NAN),
     ];
-    for kind in ParamKind::ALL {
+    for kind in matscan_estimate::PIPELINE_ORDER {
         let network = net(kind, 8);
         for (mask_name, mask) in masks {
             for (fill_name, value) in fills {
@@ -242,13 +240,13 @@ fn extreme_inputs_give_finite_outputs() {
 
 #[test]
 fn wrong_views_are_refused_with_the_reason() {
-    let kind = ParamKind::Subsurface;
+    let kind = Param::Subsurface;
     let network = net(kind, 4);
     assert_eq!(
         network.forward(&[]).unwrap_err(),
         InputError::NoViews { kind }
     );
-    let wrong_channels = random_views(ParamKind::Transmission, 1, 8, 8, 6);
+    let wrong_channels = random_views(Param::Transmission, 1, 8, 8, 6);
     match network.forward(&wrong_channels) {
         Err(InputError::Shape {
             view: 0,

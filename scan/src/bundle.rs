@@ -123,6 +123,37 @@ impl TruthImage {
     }
 }
 
+/// The scan bundles (folders holding [`MANIFEST_FILE`]) of a set: `dir`
+/// itself when it is one, else those directly under it and one level
+/// further down (a set grouped by kind, as `matscan simulate --recipe`
+/// writes it), sorted by path. Empty when there are none.
+pub fn find_bundles(dir: &Path) -> Result<Vec<PathBuf>, ScanError> {
+    fn walk(dir: &Path, depth: usize, out: &mut Vec<PathBuf>) -> Result<(), ScanError> {
+        if dir.join(MANIFEST_FILE).is_file() {
+            out.push(dir.to_path_buf());
+            return Ok(());
+        }
+        if depth == 0 {
+            return Ok(());
+        }
+        let io = |source| ScanError::Io {
+            path: dir.to_path_buf(),
+            source,
+        };
+        for entry in std::fs::read_dir(dir).map_err(io)? {
+            let path = entry.map_err(io)?.path();
+            if path.is_dir() {
+                walk(&path, depth - 1, out)?;
+            }
+        }
+        Ok(())
+    }
+    let mut out = Vec::new();
+    walk(dir, 2, &mut out)?;
+    out.sort();
+    Ok(out)
+}
+
 /// `views/<position>/<capture>.exr`: where [`BundleWriter::write_photo`]
 /// puts a photo.
 pub fn photo_path(position: &str, capture: &str) -> PathBuf {

@@ -22,6 +22,7 @@ pub mod atomic;
 pub mod bundle;
 pub mod bvh;
 pub mod camera;
+pub mod draw;
 pub mod error;
 pub mod image_io;
 pub mod manifest;

@@ -2,12 +2,15 @@
 //! procedural scenes it renders, standing in for real hardware in tests, in
 //! the demo and as the source of training data.
 //!
-//! - [`material`]: the Principled BSDF inputs at a point;
-//! - [`bsdf`]: the Principled BSDF as Blender 2.9x Cycles implements it;
 //! - [`scene`]: procedural geometry, parameter maps, rig randomization;
 //! - [`render`]: a Monte Carlo path tracer with next-event estimation and
 //!   multiple importance sampling over the rig's lights and the environment,
-//!   and the writer of whole scan bundles.
+//!   and the writer of whole scan bundles;
+//! - [`dataset`]: sets of scans, by seed run or by recipe, resumable and
+//!   sharded.
+//!
+//! The material model is `matscan-bsdf`'s Principled BSDF, the same code
+//! the estimator fits.
 //!
 //! Boundaries: reads and writes bundles only through `matscan-scan`; knows
 //! nothing of calibration or estimation.
@@ -17,7 +20,6 @@
 //! seedable, platform-independent generator so renders are deterministic per
 //! seed.
 
-pub mod bsdf;
-pub mod material;
+pub mod dataset;
 pub mod render;
 pub mod scene;

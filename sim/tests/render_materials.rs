@@ -6,8 +6,8 @@ mod common;
 
 use common::*;
 use glam::{DVec3, Vec3};
+use matscan_bsdf::material::Material;
 use matscan_scan::PinholeCamera;
-use matscan_sim::material::Material;
 use matscan_sim::render::{CaptureSpec, RenderOptions, Renderer};
 use matscan_sim::scene::{EnvSource, Scene};
 

@@ -2,10 +2,10 @@
 //! finite, and calibration from the manifest and mesh alone reproduces the
 //! renderer's object mask and passes `calib check`.
 
+use matscan_bsdf::material::Material;
 use matscan_calib::check::{check, CheckOptions};
 use matscan_calib::{calibrate_bundle, CalibOptions};
 use matscan_scan::{Bundle, TruthImage, TruthMap};
-use matscan_sim::material::Material;
 use matscan_sim::render::{write_scan_bundle, SimOptions};
 use matscan_sim::scene::{
     generate, GeometryKind, GeometrySource, MaterialField, SceneKind, SceneOptions,

@@ -9,8 +9,8 @@
 //! turns from GGX into a delta mirror.
 
 use glam::Vec3;
-use matscan_sim::bsdf::{Bsdf, LobeKind, DELTA_ALPHA};
-use matscan_sim::material::{Material, DEFAULT_SUBSURFACE_RADIUS};
+use matscan_bsdf::material::{Material, DEFAULT_SUBSURFACE_RADIUS};
+use matscan_bsdf::{Bsdf, LobeKind, DELTA_ALPHA};
 use proptest::prelude::*;
 
 /// The largest f32 below 1: the top of `sample`'s `[0, 1)` domain.

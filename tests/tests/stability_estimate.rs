@@ -8,12 +8,13 @@
 
 mod common;
 
-use matscan_estimate::output::ResultFile;
-use matscan_estimate::pipeline::References;
+use matscan_estimate::pipeline::output::ResultFile;
+use matscan_estimate::pipeline::run::References;
 use matscan_estimate::refine::RefineOptions;
-use matscan_estimate::{cpu_device, estimate, EstimateOptions, ModelSource, ParamKind};
+use matscan_estimate::{cpu_device, estimate, EstimateOptions, ModelSource};
 use matscan_scan::image_io::{read_rgb_exr, read_scalar_exr};
 use matscan_scan::Manifest;
+use matscan_scan::Param;
 use matscan_sim::render::{write_scan_bundle, SimOptions};
 use matscan_sim::scene::{generate, GeometryKind, GeometrySource, SceneKind, SceneOptions};
 use std::path::Path;
@@ -35,9 +36,9 @@ fn assert_maps_in_range(scan: &Path, result: &ResultFile, what: &str) {
     assert!(!result.positions.is_empty(), "{what}: no position has maps");
     for position in &result.positions {
         let dir = scan.join("estimate").join(position);
-        for kind in ParamKind::ALL {
+        for kind in matscan_estimate::PIPELINE_ORDER {
             let path = dir.join(format!("{}.exr", kind.name()));
-            let values: Vec<f32> = if kind == ParamKind::Basecolor {
+            let values: Vec<f32> = if kind == Param::Basecolor {
                 read_rgb_exr(&path).unwrap().data.concat()
             } else {
                 read_scalar_exr(&path).unwrap().data

@@ -9,18 +9,19 @@ mod common;
 
 use burn::tensor::{Device, Tensor};
 use matscan_calib::calibrate_bundle;
-use matscan_estimate::inputs::{Dependencies, SceneInputs};
-use matscan_estimate::views::select_views;
-use matscan_estimate::{cpu_device, EstimateOptions, ModelSource, ParamKind, ViewFilter};
+use matscan_estimate::pipeline::inputs::{Dependencies, SceneInputs};
+use matscan_estimate::pipeline::views::select_views;
+use matscan_estimate::{cpu_device, EstimateOptions, ModelSource, ViewFilter};
 use matscan_scan::raster::RgbRaster;
 use matscan_scan::Bundle;
+use matscan_scan::Param;
 use proptest::prelude::*;
 use std::path::Path;
 
 /// Assembles every network's inputs for the scan at `scan` with
 /// dependencies all equal to `dep` and illumination `illum`, and returns the
 /// values of every tensor.
-fn all_inputs(scan: &Path, dep: f32, illum: f32, device: &Device) -> Vec<(ParamKind, Vec<f32>)> {
+fn all_inputs(scan: &Path, dep: f32, illum: f32, device: &Device) -> Vec<(Param, Vec<f32>)> {
     let bundle = Bundle::open(scan).unwrap();
     let calibration = calibrate_bundle(&bundle, &common::no_bad_light_check()).unwrap();
     let set = select_views(&bundle.manifest, &calibration, &ViewFilter::default()).unwrap();
@@ -36,7 +37,7 @@ fn all_inputs(scan: &Path, dep: f32, illum: f32, device: &Device) -> Vec<(ParamK
         illumination: Some(&illumination),
     };
     let which: Vec<usize> = (0..inputs.views.len()).collect();
-    ParamKind::ALL
+    matscan_estimate::PIPELINE_ORDER
         .iter()
         .map(|&kind| {
             let tensors = inputs.tensors(kind, &which, &deps, device).unwrap();

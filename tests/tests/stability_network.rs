@@ -5,15 +5,17 @@
 //! change of the output (a measured Lipschitz-style bound, stated below).
 
 use burn::tensor::{Tensor, TensorData};
-use matscan_estimate::models::Models;
-use matscan_estimate::{cpu_device, NetConfig, NetOutput, ParamKind, ParamNet};
+use matscan_estimate::net::models::Models;
+use matscan_estimate::NetworkSpec;
+use matscan_estimate::{cpu_device, NetConfig, NetOutput, ParamNet};
+use matscan_scan::Param;
 use proptest::prelude::*;
 use std::sync::OnceLock;
 
 /// Random-weight width of the fast tests (tracks of 2).
 const WIDTH: usize = 8;
 
-fn random_net(kind: ParamKind, seed: u64) -> ParamNet {
+fn random_net(kind: Param, seed: u64) -> ParamNet {
     let device = cpu_device();
     device.seed(seed);
     ParamNet::new(NetConfig::new(kind, WIDTH).unwrap(), &device)
@@ -22,11 +24,13 @@ fn random_net(kind: ParamKind, seed: u64) -> ParamNet {
 /// The shipped networks, loaded once per test binary.
 fn embedded() -> &'static Models {
     static MODELS: OnceLock<Models> = OnceLock::new();
-    MODELS.get_or_init(|| Models::load_embedded(&ParamKind::ALL, &cpu_device()).unwrap())
+    MODELS.get_or_init(|| {
+        Models::load_embedded(&matscan_estimate::PIPELINE_ORDER, &cpu_device()).unwrap()
+    })
 }
 
-fn kind() -> impl Strategy<Value = ParamKind> {
-    prop::sample::select(ParamKind::ALL.to_vec())
+fn kind() -> impl Strategy<Value = Param> {
+    prop::sample::select(matscan_estimate::PIPELINE_ORDER.to_vec())
 }
 
 /// How a plane of one channel is filled.
@@ -84,7 +88,7 @@ fn plane(fill: Fill, channel: usize, h: usize, w: usize) -> impl Iterator<Item =
 
 /// `views` views of `kind`'s inputs, every channel filled by `fills`
 /// (cycled), the mask channel 0 kept at 1 (a whole object).
-fn inputs(kind: ParamKind, views: usize, h: usize, w: usize, fills: &[Fill]) -> Vec<Vec<f32>> {
+fn inputs(kind: Param, views: usize, h: usize, w: usize, fills: &[Fill]) -> Vec<Vec<f32>> {
     let c = kind.inputs().len();
     (0..views)
         .map(|v| {
@@ -102,7 +106,7 @@ fn inputs(kind: ParamKind, views: usize, h: usize, w: usize, fills: &[Fill]) -> 
         .collect()
 }
 
-fn tensors(kind: ParamKind, h: usize, w: usize, views: &[Vec<f32>]) -> Vec<Tensor<4>> {
+fn tensors(kind: Param, h: usize, w: usize, views: &[Vec<f32>]) -> Vec<Tensor<4>> {
     let c = kind.inputs().len();
     views
         .iter()
@@ -231,7 +235,7 @@ proptest! {
 fn the_mask_channel_switching_off_everywhere_stays_finite() {
     // An all-zero mapped mask (no view sees the object) and inputs pinned
     // at +-1: fusion and pooling see nothing valid anywhere.
-    for kind in ParamKind::ALL {
+    for kind in matscan_estimate::PIPELINE_ORDER {
         let net = random_net(kind, 3);
         let c = kind.inputs().len();
         let (h, w) = (9, 11);

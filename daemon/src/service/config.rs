@@ -5,7 +5,7 @@
 //!
 //! Boundaries: reads text; opens no device and no socket.
 
-use matscan_drivers::kms::{Gamma, ModeRequest};
+use matscan_drivers::projector::kms::{Gamma, ModeRequest};
 use matscan_drivers::usb::UsbId;
 use matscan_scan::Param;
 use matscan_sim::scene::{GeometryKind, SceneKind};
@@ -590,7 +590,7 @@ fn hardware(
         )
     } else if footswitch.starts_with("pipe:") {
         FootswitchSource::Pipe(
-            matscan_drivers::pipe_trigger::pipe_path(&footswitch).ok_or_else(|| {
+            matscan_drivers::footswitch::pipe::pipe_path(&footswitch).ok_or_else(|| {
                 invalid(
                     "hardware.footswitch",
                     "`pipe:` needs the named pipe's path: `pipe:/run/matscan/pedal`".into(),

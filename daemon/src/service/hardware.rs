@@ -29,8 +29,8 @@
 
 use super::config::{CameraSource, FootswitchSource, HardwareRigConfig, ProjectorSource};
 use super::sequencer::{PositionGeometry, Rig, RigGeometry};
-use matscan_drivers::footswitch::EvdevFootswitch;
-use matscan_drivers::serial::{open_lights, HostConfig};
+use matscan_drivers::footswitch::evdev::EvdevFootswitch;
+use matscan_drivers::lights::{open_lights, HostConfig};
 use matscan_drivers::{Camera, DriverError, Projector, Trigger};
 use matscan_scan::{LightKind, Manifest, Mesh, ScanError};
 use std::path::{Path, PathBuf};
@@ -212,8 +212,8 @@ fn open_camera(
     source: &CameraSource,
     config: &HardwareRigConfig,
 ) -> Result<Box<dyn Camera>, HardwareError> {
-    use matscan_drivers::nokhwa_camera::{CameraSelector, NokhwaCamera, NokhwaConfig};
-    use matscan_drivers::v4l2::{V4l2Camera, V4l2Config};
+    use matscan_drivers::camera::nokhwa::{CameraSelector, NokhwaCamera, NokhwaConfig};
+    use matscan_drivers::camera::v4l2::{V4l2Camera, V4l2Config};
     Ok(match source {
         CameraSource::V4l2(path) => Box::new(V4l2Camera::open(V4l2Config::new(
             path,
@@ -242,8 +242,8 @@ fn open_camera(
 
 #[cfg(feature = "hardware")]
 fn open_projector(source: &ProjectorSource) -> Result<Box<dyn Projector>, HardwareError> {
-    use matscan_drivers::kms::{DrmConfig, DrmProjector};
-    use matscan_drivers::usb::{LightCrafter, LightCrafterConfig};
+    use matscan_drivers::projector::kms::{DrmConfig, DrmProjector};
+    use matscan_drivers::projector::lightcrafter::{LightCrafter, LightCrafterConfig};
     Ok(match source {
         ProjectorSource::Drm {
             card,
@@ -284,14 +284,13 @@ fn open_footswitch(
     match source {
         FootswitchSource::Evdev(path) => Ok(Box::new(EvdevFootswitch::open(path, keys.to_vec())?)),
         #[cfg(feature = "hardware")]
-        FootswitchSource::Usb(id) => Ok(Box::new(matscan_drivers::usb::UsbFootswitch::open(
-            *id,
-            keys.to_vec(),
-        )?)),
+        FootswitchSource::Usb(id) => Ok(Box::new(
+            matscan_drivers::footswitch::usb::UsbFootswitch::open(*id, keys.to_vec())?,
+        )),
         #[cfg(not(feature = "hardware"))]
         FootswitchSource::Usb(_) => Err(not_built(source.to_string(), "raw USB support")),
         FootswitchSource::Pipe(path) => Ok(Box::new(
-            matscan_drivers::pipe_trigger::PipeTrigger::open(path)?,
+            matscan_drivers::footswitch::pipe::PipeTrigger::open(path)?,
         )),
     }
 }
@@ -681,7 +680,7 @@ mod tests {
         use crate::service::config::Profile;
         use crate::service::plan::plan;
         use crate::service::sequencer::RunSettings;
-        use matscan_drivers::serial::pty_pair;
+        use matscan_drivers::lights::pty_pair;
         use matscan_drivers::sim_rig::{SimBench, SimConfig};
         use matscan_drivers::LightId;
         use std::time::Duration;

@@ -31,23 +31,20 @@ pub mod socket;
 pub mod state;
 pub mod worker;
 
-use clap::Args;
 use std::path::PathBuf;
 use std::sync::atomic::AtomicBool;
 
-/// `matscan daemon` arguments.
-#[derive(Debug, Args)]
-pub struct DaemonArgs {
+/// What `matscan daemon` runs with: the configuration file and its
+/// command-line overrides.
+#[derive(Clone, Debug)]
+pub struct DaemonOptions {
     /// The configuration file (TOML; see docs/daemon-protocol.md).
-    #[arg(long)]
     pub config: PathBuf,
     /// Control socket path (overrides the config's `socket`; default
     /// /run/matscan/matscan.sock).
-    #[arg(long)]
     pub socket: Option<PathBuf>,
     /// Scans folder (overrides the config's `scans`; default
     /// /var/lib/matscan/scans).
-    #[arg(long)]
     pub scans: Option<PathBuf>,
 }
 
@@ -61,7 +58,7 @@ pub enum DaemonError {
 
 /// The configuration `args` select: the file, then the command-line
 /// overrides.
-pub fn load_config(args: &DaemonArgs) -> Result<config::Config, DaemonError> {
+pub fn load_config(args: &DaemonOptions) -> Result<config::Config, DaemonError> {
     let mut config = config::Config::load(&args.config)?;
     if let Some(s) = &args.socket {
         config.socket = s.clone();
@@ -74,7 +71,7 @@ pub fn load_config(args: &DaemonArgs) -> Result<config::Config, DaemonError> {
 
 /// Runs the daemon until SIGTERM or SIGINT (exit code 0), or fails to start
 /// (exit code 1).
-pub fn run_daemon(args: &DaemonArgs) -> Result<(), DaemonError> {
+pub fn run_daemon(args: &DaemonOptions) -> Result<(), DaemonError> {
     let config = load_config(args)?;
     server::install_signal_handlers()?;
     let server = server::Server::bind(config, notify::Notifier::from_env())?;

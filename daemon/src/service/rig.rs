@@ -10,7 +10,7 @@
 use super::config::{RigChoice, SimulatedRigConfig};
 use super::hardware::HardwareError;
 use super::sequencer::{PositionGeometry, Rig, RigGeometry, TruthSource};
-use matscan_drivers::serial::BoardFaults;
+use matscan_drivers::lights::BoardFaults;
 use matscan_drivers::sim_rig::{SimConfig, SimFaults, SimulatedRig};
 use matscan_drivers::DriverError;
 use matscan_scan::bundle::BundleWriter;
@@ -64,9 +64,9 @@ fn open_simulated(c: &SimulatedRigConfig) -> Result<Rig, DriverError> {
     };
     let trigger: Option<Box<dyn matscan_drivers::Trigger>> = match &c.footswitch {
         // The pedal as a named pipe: a test or a demo presses it.
-        Some(pipe) => Some(Box::new(matscan_drivers::pipe_trigger::PipeTrigger::open(
-            pipe,
-        )?)),
+        Some(pipe) => Some(Box::new(
+            matscan_drivers::footswitch::pipe::PipeTrigger::open(pipe)?,
+        )),
         // Nobody turns the simulated object without a turntable, and
         // nothing presses its footswitch: the sequencer waits for the
         // press and times out with a clear error.

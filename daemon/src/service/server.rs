@@ -582,7 +582,7 @@ pub fn capture_info(scan: &Path) -> CaptureInfo {
 /// interrupted worker left unestimated. Older scans without one had their
 /// estimate fail or refused, and stay as they are.
 pub fn unestimated_tail(scans: &Path) -> Vec<(PathBuf, CaptureInfo)> {
-    use matscan_estimate::output::{ESTIMATE_DIR, RESULT_FILE};
+    use matscan_estimate::pipeline::output::{ESTIMATE_DIR, RESULT_FILE};
     let mut numbered: Vec<(u64, PathBuf)> = std::fs::read_dir(scans)
         .into_iter()
         .flatten()

@@ -12,7 +12,7 @@
 //! configuration turns it off, the worker estimates the BSDF maps into
 //! `<scan>/estimate` (`matscan_estimate::estimate`, as `matscan estimate`
 //! does). Parameters the capture profile gives are passed as the
-//! documented defaults (`matscan_estimate::plan::default_value`: 0 for
+//! documented defaults (`matscan_estimate::pipeline::plan::default_value`: 0 for
 //! metallic, transmission and subsurface), so an "opaque" profile means
 //! what it says; parameters the captures cannot support are skipped by the
 //! estimator with the reason in `result.toml`.
@@ -23,10 +23,10 @@
 use super::config::EstimateSettings;
 use crossbeam_channel::{unbounded, Sender};
 use matscan_calib::check::{check, CheckOptions};
-use matscan_calib::{calibrate_bundle, CalibOptions};
-use matscan_estimate::plan::default_value;
-use matscan_estimate::{cpu_device, estimate, EstimateOptions, Given, ModelSource, ParamKind};
-use matscan_scan::{Bundle, Param};
+use matscan_estimate::pipeline::plan::default_value;
+use matscan_estimate::pipeline::run::{estimate_prepared, PreparedScan};
+use matscan_estimate::{cpu_device, EstimateOptions, Given, ModelSource};
+use matscan_scan::Param;
 use serde::Serialize;
 use serde_json::{json, Value};
 use std::path::{Path, PathBuf};
@@ -98,7 +98,8 @@ impl Worker {
             .spawn(move || {
                 for job in rx {
                     tracing::info!("job {}: checking {}", job.id, job.scan.display());
-                    let verdict = check_scan(&job.scan);
+                    let started = std::time::Instant::now();
+                    let (verdict, prepared) = check_scan(&job.scan);
                     match &verdict {
                         Verdict::Passed => {
                             tracing::info!("job {}: calibration check passed", job.id)
@@ -122,7 +123,7 @@ impl Worker {
                             },
                             _ => {
                                 tracing::info!("job {}: estimating {}", job.id, job.scan.display());
-                                estimate_scan(&job, &settings)
+                                estimate_scan(&job, prepared.as_ref(), &settings, started)
                             }
                         };
                         match &outcome {
@@ -188,30 +189,47 @@ fn refusal(scan: &Path, problems: &[String]) -> String {
     )
 }
 
-/// Opens, calibrates and checks the scan at `scan`.
-pub fn check_scan(scan: &Path) -> Verdict {
-    let run = || -> Result<(Vec<String>, bool), String> {
-        let bundle = Bundle::open(scan).map_err(|e| e.to_string())?;
-        let calibration =
-            calibrate_bundle(&bundle, &CalibOptions::default()).map_err(|e| e.to_string())?;
-        let report = check(
-            &bundle.manifest,
-            &calibration,
-            &bundle,
-            &CheckOptions::default(),
-        )
-        .map_err(|e| e.to_string())?;
-        Ok((report.problems, report.geometry_mismatch))
+/// Opens, calibrates and checks the scan at `scan`; the opened and
+/// calibrated scan comes back for the estimate, so it is calibrated once.
+pub fn check_scan(scan: &Path) -> (Verdict, Option<PreparedScan>) {
+    let prepared = match PreparedScan::open(scan, &EstimateOptions::default().calib) {
+        Ok(p) => p,
+        Err(e) => {
+            return (
+                Verdict::Failed {
+                    error: e.to_string(),
+                },
+                None,
+            )
+        }
     };
-    match run() {
-        Ok((problems, _)) if problems.is_empty() => Verdict::Passed,
-        Ok((problems, geometry)) => Verdict::Problems { problems, geometry },
-        Err(error) => Verdict::Failed { error },
-    }
+    let report = check(
+        &prepared.bundle.manifest,
+        &prepared.calibration,
+        &prepared.bundle,
+        &CheckOptions::default(),
+    );
+    let verdict = match report {
+        Ok(r) if r.problems.is_empty() => Verdict::Passed,
+        Ok(r) => Verdict::Problems {
+            problems: r.problems,
+            geometry: r.geometry_mismatch,
+        },
+        Err(e) => Verdict::Failed {
+            error: e.to_string(),
+        },
+    };
+    (verdict, Some(prepared))
 }
 
-/// Estimates `job`'s scan into `<scan>/estimate`.
-pub fn estimate_scan(job: &Job, settings: &EstimateSettings) -> EstimateOutcome {
+/// Estimates `job`'s scan into `<scan>/estimate`, from `prepared` where the
+/// check already opened and calibrated it (`started`: when that began).
+pub fn estimate_scan(
+    job: &Job,
+    prepared: Option<&PreparedScan>,
+    settings: &EstimateSettings,
+    started: std::time::Instant,
+) -> EstimateOutcome {
     let models = match &settings.weights {
         Some(dir) => ModelSource::Dir(dir.clone()),
         None => ModelSource::Embedded,
@@ -219,14 +237,18 @@ pub fn estimate_scan(job: &Job, settings: &EstimateSettings) -> EstimateOutcome 
     let given = job
         .given
         .iter()
-        .filter_map(|p| ParamKind::from_name(p.name()))
+        .copied()
         .map(|k| (k, Given::Constant(default_value(k))))
         .collect();
     let options = EstimateOptions {
         given,
         ..EstimateOptions::default()
     };
-    match estimate(&job.scan, models, &options, &cpu_device()) {
+    let result = match prepared {
+        Some(p) => estimate_prepared(p, models, &options, &cpu_device(), started),
+        None => matscan_estimate::estimate(&job.scan, models, &options, &cpu_device()),
+    };
+    match result {
         Ok(report) => EstimateOutcome::Estimated {
             summary: summary(&report.out, &report.result),
         },
@@ -238,7 +260,7 @@ pub fn estimate_scan(job: &Job, settings: &EstimateSettings) -> EstimateOutcome 
 
 /// The JSON summary of an estimate: what `capture-now --wait` prints.
 pub fn summary(out: &Path, result: &matscan_estimate::ResultFile) -> Value {
-    let params: serde_json::Map<String, Value> = ParamKind::ALL
+    let params: serde_json::Map<String, Value> = matscan_estimate::PIPELINE_ORDER
         .iter()
         .filter_map(|k| result.param(*k).map(|p| (*k, p)))
         .map(|(k, p)| {

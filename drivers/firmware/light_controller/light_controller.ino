@@ -6,7 +6,7 @@
 // sequence number, answers a repeated sequence number from memory (so host
 // retries are idempotent) and switches every light off when no valid request
 // arrived for HEARTBEAT_MS. Prints READY after every reset. The Rust state
-// machine drivers/src/serial/board.rs behaves exactly like this sketch.
+// machine drivers/src/lights/board.rs behaves exactly like this sketch.
 
 #include <string.h>
 #include <stdlib.h>

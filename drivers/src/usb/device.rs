@@ -1,6 +1,6 @@
 //! Finding, opening and claiming a USB HID interface through rusb, shared
-//! by the LightCrafter transport and the raw footswitch (feature
-//! `hardware`).
+//! by the LightCrafter's transport (`crate::projector::lightcrafter`) and
+//! the raw footswitch (`crate::footswitch::usb`) (feature `hardware`).
 //!
 //! Boundaries: descriptors, claiming and error wording only; no protocol.
 

@@ -36,7 +36,7 @@ pub use confidence::Confidence;
 pub use observe::IlluminationSource;
 pub use solver::{Settings, StopReason};
 
-use crate::inputs::SceneInputs;
+use crate::pipeline::inputs::SceneInputs;
 use loss::Prior;
 use matscan_calib::{CalibError, ScanCalibration};
 use matscan_scan::{Bundle, ScanError};

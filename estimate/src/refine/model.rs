@@ -7,7 +7,7 @@
 //! I · colour · pattern / (π d²)` from calibration. A white diffuse surface
 //! then predicts `light · cos(n, wi)`, the `illum_<capture>` truth's direct
 //! part. The BSDF is the simulator's Cycles-2.9x principled BSDF
-//! ([`matscan_sim::bsdf::Bsdf`]), evaluated in a local frame
+//! ([`matscan_bsdf::Bsdf`]), evaluated in a local frame
 //! built from the three calibration cosines (N·V, N·L and the azimuth
 //! cosine V·L of thesis eq. 3.4): an isotropic BSDF needs nothing else.
 //!
@@ -25,9 +25,9 @@
 //! random walk is not local); transmission is held at the network's value.
 
 use glam::Vec3;
+use matscan_bsdf::material::{Material, DEFAULT_SUBSURFACE_RADIUS};
+use matscan_bsdf::{Bsdf, DELTA_ALPHA};
 use matscan_calib::photos::luma;
-use matscan_sim::bsdf::{Bsdf, DELTA_ALPHA};
-use matscan_sim::material::{Material, DEFAULT_SUBSURFACE_RADIUS};
 use std::f64::consts::PI;
 
 /// Fitted parameters per pixel.

@@ -19,7 +19,7 @@
 use super::loss::{view_weight, ViewEvidence};
 use super::model::{directions, white_response, Observation};
 use super::RefineError;
-use crate::inputs::{exposure_scale, SceneInputs, ViewPlanes};
+use crate::pipeline::inputs::{exposure_scale, SceneInputs, ViewPlanes};
 use matscan_calib::photos::luma;
 use matscan_calib::ScanCalibration;
 use matscan_scan::{Bundle, Pattern};

@@ -17,8 +17,8 @@
 //! Out of scope: what is trained (see the module root).
 
 use super::TrainError;
-use crate::network::{NetConfig, ParamNet};
-use crate::weights;
+use crate::net::network::{NetConfig, ParamNet};
+use crate::net::weights;
 use burn::module::{Module, ModuleMapper, ModuleVisitor, Param, ParamId};
 use burn::optim::OptimizerRecord;
 use burn::tensor::{Device, Tensor};

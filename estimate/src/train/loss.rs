@@ -30,9 +30,10 @@
 //! cutting samples (see `data`), the loop (see the module root).
 
 use super::data::Sample;
-use crate::network::NetOutput;
-use crate::spec::ParamKind;
+use crate::net::network::NetOutput;
+use crate::net::spec::NetworkSpec;
 use burn::tensor::{Device, Tensor, TensorData};
+use matscan_scan::Param;
 
 /// Truth values at or below this count as "zero" for the false-positive term.
 pub const ZERO_TRUTH: f32 = 1.0e-3;
@@ -45,7 +46,7 @@ const EPS: f32 = 1.0e-6;
 pub struct Batch {
     /// One `[1, inputs, h, w]` per view.
     pub views: Vec<Tensor<4>>,
-    kind: ParamKind,
+    kind: Param,
     size: [usize; 2],
     target: Tensor<4>,
     /// `[fused outputs][pixels]`, kept for the false-positive mask.
@@ -64,7 +65,7 @@ fn tensor(data: Vec<f32>, channels: usize, [h, w]: [usize; 2], device: &Device) 
 
 impl Batch {
     /// Moves `sample` of `kind`'s network onto `device`.
-    pub fn new(kind: ParamKind, sample: Sample, device: &Device) -> Batch {
+    pub fn new(kind: Param, sample: Sample, device: &Device) -> Batch {
         let size = sample.size;
         let inputs = kind.inputs().len();
         // Targets carry what is trained: metallic's one map, basecolor's three.
@@ -156,7 +157,7 @@ impl Batch {
         let fused = unit(out.fused.clone());
         let target = self.target.clone();
         match self.kind {
-            ParamKind::Roughness => {
+            Param::Roughness => {
                 let mut squared: Option<Tensor<1>> = None;
                 let mut count = 0.0;
                 for ((pred, truth), mask) in
@@ -177,20 +178,20 @@ impl Batch {
                     None => rough,
                 }
             }
-            ParamKind::Transmission => {
+            Param::Transmission => {
                 let mse = self.weighted_mse(fused.clone(), target, self.mask.clone());
                 mse + self.false_positives(fused)
             }
-            ParamKind::Subsurface => {
+            Param::Subsurface => {
                 let mse = self.weighted_mse(fused.clone(), target, self.illum_weight());
                 mse + self.false_positives(fused)
             }
-            ParamKind::Metallic => {
+            Param::Metallic => {
                 // Eq. 3.12: only the metallic channel (the first output).
                 let metallic = fused.narrow(1, 0, 1);
                 self.weighted_mse(metallic, target, self.highlight_weight())
             }
-            ParamKind::Basecolor => self.weighted_mse(fused, target, self.highlight_weight()),
+            Param::Basecolor => self.weighted_mse(fused, target, self.highlight_weight()),
         }
     }
 }

@@ -6,7 +6,7 @@
 //! batch-of-one steps of a short CPU run), batch size 1 (one scene per
 //! step), from random weights or from a weight file (`init`, to continue
 //! a shipped network on new data), every network conditioned on the **true**
-//! dependency maps (see `data`). The thesis's schedule, scaled to a CPU
+//! dependency maps (see `crate::pipeline::truth_fed`). The thesis's schedule, scaled to a CPU
 //! budget of a few thousand steps instead of 150 epochs:
 //!
 //! 1. **stems**: the first `stems_steps` steps (default 5 % of the run; the
@@ -34,20 +34,17 @@
 
 pub mod checkpoint;
 pub mod data;
-pub mod independent;
 pub mod loss;
 pub mod plot;
 
-use crate::inputs::InputsError;
-use crate::network::{ConfigError, InputError, NetConfig, ParamNet};
-use crate::spec::ParamKind;
-use crate::views::ViewError;
-use crate::weights::{self, WeightSource, WeightsError};
+use crate::net::network::{ConfigError, InputError, NetConfig, ParamNet};
+use crate::net::weights::{self, WeightSource, WeightsError};
+use crate::pipeline::truth_fed::{self, SceneData, SceneError};
 use burn::optim::{AdamConfig, GradientsParams};
 use burn::tensor::Device;
-use data::{Cut, SceneData};
+use data::Cut;
 use loss::Batch;
-use matscan_calib::CalibError;
+use matscan_scan::Param;
 use matscan_scan::ScanError;
 use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
@@ -70,33 +67,20 @@ pub enum TrainError {
         #[source]
         source: std::io::Error,
     },
-    /// A bundle could not be read.
+    /// A data folder could not be listed.
     #[error(transparent)]
     Scan(#[from] ScanError),
-    /// A bundle could not be calibrated.
-    #[error("calibration: {0}")]
-    Calib(#[from] CalibError),
-    /// A bundle has no usable views.
+    /// A scene could not be prepared (training needs simulated bundles
+    /// with ground truth).
     #[error(transparent)]
-    Views(#[from] ViewError),
-    /// Inputs could not be assembled.
-    #[error(transparent)]
-    Inputs(#[from] InputsError),
-    /// A bundle lacks ground truth (training needs simulated scans).
-    #[error("{}: no {what} (training needs simulated bundles with ground truth)", path.display())]
-    NoTruth {
-        /// The bundle.
-        path: PathBuf,
-        /// The missing map.
-        what: String,
-    },
+    Scene(#[from] SceneError),
     /// No scene of the data folder is usable for this network.
     #[error("{}: no usable scene for the {kind} network", dir.display())]
     NoScenes {
         /// The folder.
         dir: PathBuf,
         /// The network.
-        kind: ParamKind,
+        kind: Param,
     },
     /// Bad network width.
     #[error(transparent)]
@@ -125,7 +109,7 @@ pub enum TrainError {
 #[derive(Clone, Debug)]
 pub struct TrainConfig {
     /// The network.
-    pub kind: ParamKind,
+    pub kind: Param,
     /// Folder of training bundles.
     pub data: PathBuf,
     /// Folder of test bundles (the test loss); none when `None`.
@@ -173,7 +157,7 @@ pub struct TrainConfig {
 
 impl TrainConfig {
     /// Defaults for `kind`: 2000 steps, 64-pixel crops, up to 3 views.
-    pub fn new(kind: ParamKind, data: PathBuf, out: PathBuf) -> Self {
+    pub fn new(kind: Param, data: PathBuf, out: PathBuf) -> Self {
         TrainConfig {
             kind,
             data,
@@ -328,21 +312,21 @@ pub struct TrainSummary {
 /// (reported as [`Event::Skipped`]), are left out.
 pub fn load_scenes(
     dir: &Path,
-    kind: ParamKind,
+    kind: Param,
     limit: Option<usize>,
     progress: &mut dyn FnMut(Event),
 ) -> Result<Vec<SceneData>, TrainError> {
-    let mut paths = data::bundle_dirs(dir)?;
+    let mut paths = matscan_scan::bundle::find_bundles(dir)?;
     if let Some(limit) = limit {
         paths.truncate(limit);
     }
     let total = paths.len();
     let mut scenes = Vec::with_capacity(total);
     for (i, chunk) in paths.chunks(2).enumerate() {
-        let loaded: Vec<Result<Option<SceneData>, TrainError>> = std::thread::scope(|scope| {
+        let loaded: Vec<Result<Option<SceneData>, SceneError>> = std::thread::scope(|scope| {
             let handles: Vec<_> = chunk
                 .iter()
-                .map(|p| scope.spawn(move || data::load_scene(p, kind)))
+                .map(|p| scope.spawn(move || truth_fed::load_scene(p, kind)))
                 .collect();
             handles
                 .into_iter()
@@ -497,7 +481,7 @@ pub fn train(
         let views = choose_views(phase, scene.views.len(), config.max_views, &mut rng);
         let cut = Cut {
             crop: config.crop,
-            pool_to: (phase == Phase::Stems).then_some(crate::pyramid::COARSEST_MAX),
+            pool_to: (phase == Phase::Stems).then_some(crate::net::pyramid::COARSEST_MAX),
             dropout_permille: config.dropout_permille,
         };
         let sample = scene.sample(&views, cut, &mut rng);
@@ -552,7 +536,7 @@ pub fn train(
     progress(Event::Checkpoint(dir));
     let weights_path = config
         .out
-        .join(crate::models::weights_file_name(config.kind));
+        .join(crate::net::models::weights_file_name(config.kind));
     weights::save_file(&net, &weights_path)?;
     Ok(TrainSummary {
         steps: step,
@@ -629,7 +613,7 @@ mod tests {
 
     #[test]
     fn the_schedule_runs_stems_then_single_then_alternates() {
-        let config = TrainConfig::new(ParamKind::Metallic, "d".into(), "o".into());
+        let config = TrainConfig::new(Param::Metallic, "d".into(), "o".into());
         // 2000 steps: 100 stems, 400 single.
         assert_eq!(config.phase(0), Phase::Stems);
         assert_eq!(config.phase(99), Phase::Stems);
@@ -641,7 +625,7 @@ mod tests {
 
     #[test]
     fn the_learning_rate_is_constant_or_falls_by_cosine_to_its_end() {
-        let mut config = TrainConfig::new(ParamKind::Metallic, "d".into(), "o".into());
+        let mut config = TrainConfig::new(Param::Metallic, "d".into(), "o".into());
         config.steps = 100;
         assert_eq!(config.learning_rate_at(0), LEARNING_RATE);
         assert_eq!(config.learning_rate_at(99), LEARNING_RATE);

@@ -12,6 +12,7 @@
 use super::checkpoint::write_atomic;
 use super::TrainError;
 use image::{ImageFormat, Rgb, RgbImage};
+use matscan_scan::draw::line;
 use std::io::Write;
 use std::path::Path;
 
@@ -110,38 +111,6 @@ pub fn append(path: &Path, row: &Row) -> Result<(), TrainError> {
 const W: u32 = 800;
 const H: u32 = 450;
 const MARGIN: i64 = 20;
-
-/// Sets pixel (`x`, `y`) when it lies inside the image (the clipping every
-/// primitive here and in `matscan bench`'s chart shares).
-pub fn put(img: &mut RgbImage, (x, y): (i64, i64), colour: Rgb<u8>) {
-    if x >= 0 && y >= 0 && (x as u32) < img.width() && (y as u32) < img.height() {
-        img.put_pixel(x as u32, y as u32, colour);
-    }
-}
-
-/// Draws a one-pixel line from (`x0`, `y0`) to (`x1`, `y1`) (Bresenham),
-/// clipped to the image. Public so that other plots (`matscan bench`'s
-/// error against run time) draw with the same primitive.
-pub fn line(img: &mut RgbImage, (x0, y0): (i64, i64), (x1, y1): (i64, i64), colour: Rgb<u8>) {
-    let (dx, dy) = ((x1 - x0).abs(), -(y1 - y0).abs());
-    let (sx, sy) = (if x0 < x1 { 1 } else { -1 }, if y0 < y1 { 1 } else { -1 });
-    let (mut x, mut y, mut err) = (x0, y0, dx + dy);
-    loop {
-        put(img, (x, y), colour);
-        if x == x1 && y == y1 {
-            break;
-        }
-        let e2 = 2 * err;
-        if e2 >= dy {
-            err += dy;
-            x += sx;
-        }
-        if e2 <= dx {
-            err += dx;
-            y += sy;
-        }
-    }
-}
 
 /// Draws `rows` into a PNG at `path` (atomically).
 pub fn draw(rows: &[Row], path: &Path) -> Result<(), TrainError> {

@@ -1,5 +1,5 @@
 //! The scattering function at a path vertex, behind one interface for the
-//! integrator: the Principled BSDF of the object (`crate::bsdf`), the
+//! integrator: the Principled BSDF of the object (`matscan_bsdf`), the
 //! Lambertian reflectors (the backlight panel, and the white diffuse of the
 //! `illum_` truth renders), and the exit of a subsurface random walk.
 //!
@@ -11,9 +11,9 @@
 //! `f * |cos(wi)|` and the solid-angle density of `sample` producing `wi`.
 
 use super::sampling::{cosine_hemisphere, Frame};
-use crate::bsdf::{Bsdf, BsdfEval, BsdfSample, LobeKind, SubsurfaceExit, SubsurfaceMedium};
-use crate::material::Material;
 use glam::Vec3;
+use matscan_bsdf::material::Material;
+use matscan_bsdf::{Bsdf, BsdfEval, BsdfSample, LobeKind, SubsurfaceExit, SubsurfaceMedium};
 use matscan_scan::SurfacePoint;
 use std::f32::consts::FRAC_1_PI;
 

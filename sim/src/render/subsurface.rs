@@ -20,8 +20,8 @@
 
 use super::sampling::{uniform_sphere, PixelRng};
 use super::world::World;
-use crate::bsdf::SubsurfaceMedium;
 use glam::Vec3;
+use matscan_bsdf::SubsurfaceMedium;
 use matscan_scan::{Ray, SurfacePoint};
 
 /// Most scattering events of one walk.

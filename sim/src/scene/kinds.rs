@@ -39,8 +39,8 @@
 
 use super::maps::{binary_map, color_map, masked_map, mixed_map};
 use super::{color::hsv_to_rgb, MaterialField, SceneError, Texture};
-use crate::material::{Material, DEFAULT_SUBSURFACE_RADIUS};
 use glam::Vec3;
+use matscan_bsdf::material::{Material, DEFAULT_SUBSURFACE_RADIUS};
 use matscan_scan::Raster;
 use rand::Rng;
 use rand_pcg::Pcg64;

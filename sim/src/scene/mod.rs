@@ -23,8 +23,8 @@ pub use geometry::{GeometryKind, UserMesh, UvProjection};
 pub use kinds::SceneKind;
 pub use rig::{random_rig, rig_to_manifest_lights, RigOptions};
 
-use crate::material::Material;
 use glam::{DMat4, Vec2, Vec3};
+use matscan_bsdf::material::Material;
 use matscan_scan::{camera::Intrinsics, raster::Raster, Mesh, SurfacePoint};
 use std::path::PathBuf;
 

@@ -4,9 +4,9 @@
 #![allow(dead_code)]
 
 use glam::{DVec3, Vec2, Vec3};
+use matscan_bsdf::material::Material;
 use matscan_scan::camera::{look_at, Intrinsics};
 use matscan_scan::{Mesh, Pattern};
-use matscan_sim::material::Material;
 use matscan_sim::scene::{
     Backlight, EnvSource, EnvSpec, MaterialField, PointLight, Projector, Rig, RigPosition, Scene,
 };

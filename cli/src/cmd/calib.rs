@@ -1,0 +1,151 @@
+//! `matscan calib`: write a bundle's calibration maps, or check its
+//! calibration against its photos.
+
+use anyhow::{Context, Result};
+use clap::{Args, Subcommand};
+use matscan_calib::check::{check, CheckOptions, CheckReport};
+use matscan_calib::{calibrate_bundle, write_maps, CalibOptions};
+use matscan_scan::Bundle;
+use std::path::Path;
+use std::path::PathBuf;
+use std::time::Instant;
+
+#[derive(Debug, Args)]
+pub struct CalibArgs {
+    #[command(subcommand)]
+    pub action: Option<CalibAction>,
+    /// The scan bundle folder.
+    #[arg(required = true)]
+    pub scan: Option<PathBuf>,
+    /// Output folder (default: SCAN/calib).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum CalibAction {
+    /// Validate the calibration against the photos: silhouette IoU of the
+    /// projected mesh against the object in the photos, light positions
+    /// against the shading, and a verdict per position. Exits 2 when a
+    /// check fails.
+    Check {
+        /// The scan bundle folder.
+        scan: PathBuf,
+        /// Print one JSON object with the per-position figures.
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+/// Runs `matscan calib`: exit code 2 when a check fails.
+pub fn run(a: CalibArgs) -> Result<()> {
+    match (a.action, a.scan) {
+        (Some(CalibAction::Check { scan, json }), _) => {
+            if run_check(&scan, json)? {
+                Ok(())
+            } else {
+                std::process::exit(2)
+            }
+        }
+        (None, Some(scan)) => {
+            let out = a.out.unwrap_or_else(|| scan.join("calib"));
+            write(&scan, &out)
+        }
+        (None, None) => anyhow::bail!("give a scan folder: matscan calib SCAN"),
+    }
+}
+
+/// Writes every map of every position under `out` and prints a summary.
+pub fn write(scan: &Path, out: &Path) -> Result<()> {
+    let bundle = open(scan)?;
+    let t = Instant::now();
+    let calibration = calibrate_bundle(&bundle, &CalibOptions::default())
+        .with_context(|| format!("calibrating {}", scan.display()))?;
+    let secs = t.elapsed().as_secs_f64();
+    let files = write_maps(&calibration, out)
+        .with_context(|| format!("writing calibration maps to {}", out.display()))?;
+    for pc in &calibration.positions {
+        let name = &pc.maps.position;
+        let pixels = pc.maps.geometry.mask.data.iter().filter(|&&m| m).count();
+        let light = match &pc.light_response {
+            Ok(_) => "white reference ok".to_string(),
+            Err(e) => format!("no white reference: {e}"),
+        };
+        let bad = match pc.bad_light.reason() {
+            Some(reason) => format!("; left out: {reason}"),
+            None => String::new(),
+        };
+        println!("{name}: {pixels} object pixels; {light}{bad}");
+    }
+    println!(
+        "{} files in {} ({secs:.2} s to calibrate)",
+        files.len(),
+        out.display()
+    );
+    Ok(())
+}
+
+/// Checks the calibration; returns whether every check passed.
+pub fn run_check(scan: &Path, json: bool) -> Result<bool> {
+    let bundle = open(scan)?;
+    let calibration = calibrate_bundle(&bundle, &CalibOptions::default())
+        .with_context(|| format!("calibrating {}", scan.display()))?;
+    let report = check(
+        &bundle.manifest,
+        &calibration,
+        &bundle,
+        &CheckOptions::default(),
+    )
+    .with_context(|| format!("checking {}", scan.display()))?;
+    if json {
+        println!("{}", report.to_json());
+    } else {
+        print_report(&report);
+    }
+    Ok(report.passed())
+}
+
+fn open(scan: &Path) -> Result<Bundle> {
+    let bundle = Bundle::open(scan).with_context(|| format!("opening scan {}", scan.display()))?;
+    for w in &bundle.warnings {
+        eprintln!("warning: {w}");
+    }
+    Ok(bundle)
+}
+
+fn print_report(report: &CheckReport) {
+    for p in &report.positions {
+        let sil = match &p.silhouette {
+            Some(s) => format!("silhouette IoU {:.4} ({:?})", s.iou, s.source),
+            None => "no silhouette to compare (no mask, no backlit capture)".to_string(),
+        };
+        println!("{}: {sil}", p.position);
+        for l in &p.lights {
+            match l.correlation {
+                Some(c) => println!(
+                    "  {} ({}): shading correlation {c:.3} over {} px{}",
+                    l.capture,
+                    l.light,
+                    l.pixels,
+                    if c < 0.5 {
+                        " (weak: expected on textured or glossy objects; near 0 or below means a misplaced light)"
+                    } else {
+                        ""
+                    }
+                ),
+                None => println!(
+                    "  {} ({}): no shading variation to compare",
+                    l.capture, l.light
+                ),
+            }
+        }
+    }
+    if report.passed() {
+        println!("verdict: calibration consistent with the photos");
+    } else {
+        println!("verdict: PROBLEMS");
+        for p in &report.problems {
+            println!("  - {p}");
+        }
+    }
+}

@@ -1,0 +1,77 @@
+//! `matscan eval SCANS...`: error against run time over simulated scans,
+//! as the thesis's tables (see `matscan_evaluate::eval`).
+
+use anyhow::{Context, Result};
+use clap::Args;
+use matscan_evaluate::eval::tables::GroupBy;
+use matscan_evaluate::eval::{run as evaluate, DependencySource, EvalOptions};
+use std::path::PathBuf;
+
+/// The flags of `matscan eval`.
+#[derive(Args, Debug)]
+pub struct EvalArgs {
+    /// Simulated scans with truth maps: scan folders, or folders of them
+    /// (as `matscan simulate --dataset` writes, also one level deeper).
+    #[arg(required = true, value_name = "SCANS")]
+    pub data: Vec<PathBuf>,
+    /// Folder with `<param>.weights` per network (default: the weights
+    /// built into this binary).
+    #[arg(long, value_name = "DIR")]
+    pub weights: Option<PathBuf>,
+    /// View counts to compare, comma-separated; 0 = every view.
+    #[arg(long, value_delimiter = ',', default_value = "1,3,0")]
+    pub views: Vec<usize>,
+    /// A training set whose mean truth per parameter is the trivial
+    /// baseline (default: the evaluated set's own mean).
+    #[arg(long, value_name = "DIR")]
+    pub baseline_from: Option<PathBuf>,
+    /// Evaluate at most this many scans (in name order).
+    #[arg(long)]
+    pub limit: Option<usize>,
+    /// Also write every table as one CSV here (column `table`: overall,
+    /// group or scene).
+    #[arg(long, value_name = "FILE")]
+    pub csv: Option<PathBuf>,
+    /// Rows of the per-group tables: kind (the scene kind) or dataset
+    /// (kind and geometry).
+    #[arg(long, default_value = "kind")]
+    pub group_by: GroupBy,
+    /// Also print each scene's run time beside its errors (the CSV always
+    /// has them).
+    #[arg(long)]
+    pub per_scene: bool,
+    /// Where each network's dependencies come from: estimated (the other
+    /// networks' estimates: the product's chained path, what `matscan
+    /// estimate` does; the thesis's section 4.8) or truth (each network on
+    /// its own, as the thesis measured its Tables 4.1 to 4.3, section 4.5;
+    /// run time is the networks' alone).
+    #[arg(long, default_value = "estimated")]
+    pub dependencies: DependencySource,
+    /// Also bake estimate and truth into UV textures of SIZE texels
+    /// (default 256) and report per-parameter error on measured texels and
+    /// re-render PSNR/SSIM under 2 novel lights and 2 novel views.
+    #[arg(long, value_name = "SIZE", num_args = 0..=1, default_missing_value = "256")]
+    pub textures: Option<u32>,
+}
+
+/// Runs `matscan eval`: prints the tables, writes the CSV.
+pub fn run(a: &EvalArgs) -> Result<()> {
+    let report = evaluate(&EvalOptions {
+        data: a.data.clone(),
+        weights: a.weights.clone(),
+        views: a.views.clone(),
+        baseline_from: a.baseline_from.clone(),
+        limit: a.limit,
+        group_by: a.group_by,
+        per_scene: a.per_scene,
+        dependencies: a.dependencies,
+        textures: a.textures,
+    })?;
+    print!("{}", report.table);
+    if let Some(path) = &a.csv {
+        matscan_scan::atomic::write_atomic(path, report.csv.as_bytes())
+            .with_context(|| format!("writing {}", path.display()))?;
+        println!("wrote {}", path.display());
+    }
+    Ok(())
+}

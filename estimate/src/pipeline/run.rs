@@ -1,0 +1,820 @@
+//! One estimate of a scan: calibrate, select views, plan, run the networks
+//! stage by stage (figure 3.14; the networks of one stage concurrently, on
+//! scoped threads), compare with the truth where the scan has it, and write
+//! `estimate/`.
+//!
+//! What each network reads: the earlier parameters in [0, 1] — metallic;
+//! the effective transmission `T (1 - M)` (eq. 3.5); the effective
+//! subsurface `S (1 - M) (1 - T)` (eq. 3.6); roughness — and the roughness
+//! network's per-view illumination. Network outputs are read back with
+//! `inputs::uncentre` (basecolor as YCbCr, then converted to RGB), and are
+//! 0 outside the reference's object mask.
+//!
+//! Which views each network fuses: transmission only views whose position
+//! has a backlit capture, subsurface only views whose position has a
+//! checker capture, the others every view.
+//!
+//! Refinement (optional, `EstimateOptions::refine`): after the networks of
+//! each position, `refine` fits basecolor, roughness and metallic per pixel
+//! to the photos, starting from the networks' maps (given or skipped
+//! parameters are held), and its confidence maps are written beside them.
+//!
+//! Out of scope: the networks (see `network`), channel assembly (see
+//! `inputs`), the plan (see `plan`), file layout (see `output`), the fit
+//! (see `refine`).
+
+use crate::net::models::{ModelSource, Models, ModelsError};
+use crate::net::network::InputError;
+use crate::pipeline::inputs::{
+    rgb_of_ycbcr, uncentre, Dependencies, InputsError, Photos, SceneInputs,
+};
+use crate::pipeline::metrics::error_metrics;
+use crate::pipeline::output::{
+    write_estimate, OutputError, ParamMap, ParamResult, PositionMaps, ResultFile, Status, Timings,
+    RESULT_FORMAT,
+};
+use crate::pipeline::plan::{default_value, Availability, Decision, Given, Plan, PlanError};
+use crate::pipeline::views::{select_views, ViewError, ViewFilter};
+use crate::refine::{
+    refine_scene, Hold, RefineError, RefineOptions, RefineSummary, Start, StopReason, NOT_FITTED,
+};
+use burn::tensor::Device;
+use matscan_calib::{calibrate_bundle, CalibError, CalibOptions, ScanCalibration};
+use matscan_scan::image_io::{read_rgb_exr, read_scalar_exr};
+use matscan_scan::raster::{RgbRaster, ScalarRaster};
+use matscan_scan::{Bundle, Param, ScanError, TruthMap};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// What to estimate and how.
+#[derive(Clone, Debug, Default)]
+pub struct EstimateOptions {
+    /// Output folder; `<scan>/estimate` when `None`.
+    pub out: Option<PathBuf>,
+    /// User-given parameters.
+    pub given: Vec<(Param, Given)>,
+    /// Only these parameters (and what they need); all when `None`.
+    pub only: Option<Vec<Param>>,
+    /// `--positions` and `--views`.
+    pub filter: ViewFilter,
+    /// Calibration settings.
+    pub calib: CalibOptions,
+    /// Which positions get maps.
+    pub references: References,
+    /// The per-pixel refinement after the networks (off by default).
+    pub refine: RefineOptions,
+}
+
+/// Which positions' camera images get maps.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum References {
+    /// Only the reference position (the first usable one).
+    #[default]
+    First,
+    /// Every usable position, each in turn as reference with the same views:
+    /// what texture baking needs to cover the whole object. Costs one pass
+    /// of the networks per position.
+    Every,
+}
+
+/// An estimate that could not be made.
+#[derive(Debug, thiserror::Error)]
+pub enum EstimateError {
+    /// Reading the scan failed.
+    #[error(transparent)]
+    Scan(#[from] ScanError),
+    /// Calibration failed.
+    #[error("calibration: {0}")]
+    Calib(#[from] CalibError),
+    /// No usable views.
+    #[error(transparent)]
+    Views(#[from] ViewError),
+    /// An invalid request.
+    #[error(transparent)]
+    Plan(#[from] PlanError),
+    /// A network is unavailable.
+    #[error(transparent)]
+    Models(#[from] ModelsError),
+    /// Assembling inputs failed.
+    #[error(transparent)]
+    Inputs(#[from] InputsError),
+    /// A network refused its inputs.
+    #[error("the {kind} network: {source}")]
+    Network {
+        /// The network.
+        kind: Param,
+        /// Why.
+        #[source]
+        source: InputError,
+    },
+    /// A network's output could not be read back.
+    #[error("the {kind} network's output could not be read: {message}")]
+    Readback {
+        /// The network.
+        kind: Param,
+        /// The backend's message.
+        message: String,
+    },
+    /// A given map does not fit the reference image.
+    #[error("--given {param}={path}: {reason}")]
+    GivenMap {
+        /// The parameter.
+        param: Param,
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        reason: String,
+    },
+    /// Writing the result failed.
+    #[error(transparent)]
+    Output(#[from] OutputError),
+    /// The refinement could not run.
+    #[error(transparent)]
+    Refine(#[from] RefineError),
+}
+
+/// What a finished estimate wrote.
+#[derive(Clone, Debug)]
+pub struct EstimateReport {
+    /// The folder written.
+    pub out: PathBuf,
+    /// The contents of its `result.toml`.
+    pub result: ResultFile,
+}
+
+/// One network's result.
+struct NetRun {
+    kind: Param,
+    /// Channel-major `[channels][pixels]`, network units.
+    fused: Vec<f32>,
+    /// Per view, the first per-view channel (illumination), network units.
+    per_view: Vec<Vec<f32>>,
+    views: usize,
+    seconds: f64,
+}
+
+/// Parameter values in [0, 1] per reference pixel.
+#[derive(Default)]
+struct Values {
+    scalar: BTreeMap<Param, Vec<f32>>,
+    basecolor: Option<Vec<[f32; 3]>>,
+    illumination: Option<Vec<Vec<f32>>>,
+    /// Seconds spent reading given maps.
+    given_s: f64,
+}
+
+/// A scan opened and calibrated once, for every stage that needs it (the
+/// daemon checks the calibration, then estimates, from the same one).
+pub struct PreparedScan {
+    pub bundle: Bundle,
+    pub calibration: ScanCalibration,
+    /// Seconds spent opening the bundle.
+    pub load_s: f64,
+    /// Seconds spent calibrating it.
+    pub calibration_s: f64,
+}
+
+impl PreparedScan {
+    /// Opens the scan at `scan` and calibrates it with `calib`.
+    pub fn open(scan: &Path, calib: &CalibOptions) -> Result<PreparedScan, EstimateError> {
+        let t = Instant::now();
+        let bundle = Bundle::open(scan)?;
+        let load_s = t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let calibration = calibrate_bundle(&bundle, calib)?;
+        Ok(PreparedScan {
+            bundle,
+            calibration,
+            load_s,
+            calibration_s: t.elapsed().as_secs_f64(),
+        })
+    }
+}
+
+/// Estimates the scan at `scan` and writes the result.
+pub fn estimate(
+    scan: &Path,
+    models: ModelSource,
+    options: &EstimateOptions,
+    device: &Device,
+) -> Result<EstimateReport, EstimateError> {
+    let start = Instant::now();
+    let prepared = PreparedScan::open(scan, &options.calib)?;
+    estimate_prepared(&prepared, models, options, device, start)
+}
+
+/// [`estimate`] of a scan already opened and calibrated (with
+/// `options.calib`); `start` is when the work on it began, for the total.
+pub fn estimate_prepared(
+    prepared: &PreparedScan,
+    models: ModelSource,
+    options: &EstimateOptions,
+    device: &Device,
+    start: Instant,
+) -> Result<EstimateReport, EstimateError> {
+    let PreparedScan {
+        bundle,
+        calibration,
+        ..
+    } = prepared;
+    let scan = bundle.root.as_path();
+    let mut timings = Timings {
+        load_s: prepared.load_s,
+        ..Timings::default()
+    };
+
+    let t = Instant::now();
+    let set = select_views(&bundle.manifest, calibration, &options.filter)?;
+    timings.calibration_s = prepared.calibration_s + t.elapsed().as_secs_f64();
+
+    let t = Instant::now();
+    // Every position sees the same photos: read each once (kept only when
+    // more positions follow).
+    let mut photos = Photos::default();
+    let inputs = SceneInputs::assemble_with(bundle, calibration, &set, &mut photos)?;
+    timings.inputs_s = t.elapsed().as_secs_f64();
+    if options.references == References::First {
+        photos = Photos::default();
+    }
+
+    let available = Availability {
+        backlit: inputs.views.iter().any(|v| v.has_backlit()),
+        checker: inputs.views.iter().any(|v| v.has_checker()),
+    };
+    let plan = Plan::new(options.only.as_deref(), &options.given, available)?;
+
+    let t = Instant::now();
+    let kinds: Vec<Param> = plan.networks().collect();
+    let models = models.resolve(&kinds, device)?;
+    timings.weights_s = t.elapsed().as_secs_f64();
+
+    let mut tally = RefineTally::default();
+    let pass = Pass {
+        plan: &plan,
+        models: &models,
+        bundle,
+        calibration,
+        refine: &options.refine,
+        device,
+    };
+    let (first, mut runs, given_s) = pass.run(&inputs, &mut tally)?;
+    timings.load_s += given_s;
+    let t = Instant::now();
+    let metrics = metrics(bundle, &set.reference, &first.maps, &inputs)?;
+    timings.metrics_s = t.elapsed().as_secs_f64();
+    let mut warnings = inputs.warnings.clone();
+    let mut positions = vec![first];
+    if options.references == References::Every {
+        let given_map = options
+            .given
+            .iter()
+            .find(|(_, g)| matches!(g, Given::Map(_)));
+        for name in set.usable.iter().filter(|p| **p != set.reference) {
+            if let Some((kind, _)) = given_map {
+                warnings.push(format!(
+                    "position {name} has no maps: the given {kind} map is in the camera \
+                     image of {}",
+                    set.reference
+                ));
+                continue;
+            }
+            let Some(other) = set.with_reference(name) else {
+                continue;
+            };
+            let t = Instant::now();
+            let inputs = SceneInputs::assemble_with(bundle, calibration, &other, &mut photos)?;
+            timings.inputs_s += t.elapsed().as_secs_f64();
+            for w in &inputs.warnings {
+                if !warnings.contains(w) {
+                    warnings.push(w.clone());
+                }
+            }
+            let (maps, more, given_s) = pass.run(&inputs, &mut tally)?;
+            timings.load_s += given_s;
+            for (kind, (_, seconds)) in more {
+                runs.entry(kind).or_insert((0, 0.0)).1 += seconds;
+            }
+            positions.push(maps);
+        }
+    }
+    timings.networks = runs
+        .iter()
+        .map(|(k, (_, s))| (k.name().to_string(), *s))
+        .collect();
+    timings.refine_s = tally.seconds;
+    timings.total_s = start.elapsed().as_secs_f64();
+
+    let mut params = BTreeMap::new();
+    for kind in crate::net::spec::PIPELINE_ORDER {
+        let model = models.get(kind).map(|m| m.id.clone());
+        let entry = match plan.decision(kind) {
+            Decision::Estimate => ParamResult {
+                status: Status::Estimated,
+                reason: None,
+                source: None,
+                default: None,
+                model,
+                views: runs.get(&kind).map(|(v, _)| *v),
+            },
+            Decision::Given(given) => ParamResult {
+                status: Status::Given,
+                reason: None,
+                source: Some(given.to_string()),
+                default: None,
+                model: None,
+                views: None,
+            },
+            Decision::Skip { reason } => ParamResult {
+                status: Status::Skipped,
+                reason: Some(reason.clone()),
+                source: None,
+                default: Some(default_value(kind)),
+                model: None,
+                views: None,
+            },
+        };
+        params.insert(kind.name().to_string(), entry);
+    }
+    let result = ResultFile {
+        format: RESULT_FORMAT.to_string(),
+        scan: scan.display().to_string(),
+        reference_position: set.reference.clone(),
+        positions: positions.iter().map(|p| p.position.clone()).collect(),
+        views: set.views.iter().map(|v| v.to_string()).collect(),
+        left_out: set.left_out.clone(),
+        warnings,
+        params,
+        models: kinds
+            .iter()
+            .filter_map(|k| models.get(*k).map(|m| (k.name().to_string(), m.id.clone())))
+            .collect(),
+        timings,
+        metrics,
+        refine: tally.summary(&options.refine, &plan),
+    };
+    let out = options
+        .out
+        .clone()
+        .unwrap_or_else(|| scan.join(crate::pipeline::output::ESTIMATE_DIR));
+    write_estimate(&out, &positions, &result)?;
+    Ok(EstimateReport { out, result })
+}
+
+/// Per network that ran: the views it fused and its seconds.
+type NetRuns = BTreeMap<Param, (usize, f64)>;
+
+/// Sets the given and skipped parameters and runs the networks stage by
+/// stage in the image of `inputs.reference`; the seconds each network took
+/// and the views it fused, by network.
+fn run_networks(
+    plan: &Plan,
+    models: &Models,
+    inputs: &SceneInputs,
+    device: &Device,
+) -> Result<(Values, NetRuns), EstimateError> {
+    let t = Instant::now();
+    let mut values = Values::default();
+    for kind in crate::net::spec::PIPELINE_ORDER {
+        match plan.decision(kind) {
+            Decision::Given(g) => set_given(&mut values, kind, g, inputs)?,
+            Decision::Skip { .. } => set_constant(&mut values, kind, default_value(kind), inputs),
+            Decision::Estimate => {}
+        }
+    }
+    values.given_s = t.elapsed().as_secs_f64();
+    let mut runs = BTreeMap::new();
+    for stage in plan.stages() {
+        let results = run_stage(stage, models, inputs, &values, device)?;
+        for run in results {
+            runs.insert(run.kind, (run.views, run.seconds));
+            store(&mut values, plan, run, inputs);
+        }
+    }
+    Ok((values, runs))
+}
+
+/// What every reference position's maps are made with.
+struct Pass<'a> {
+    plan: &'a Plan,
+    models: &'a Models,
+    bundle: &'a Bundle,
+    calibration: &'a ScanCalibration,
+    refine: &'a RefineOptions,
+    device: &'a Device,
+}
+
+impl Pass<'_> {
+    /// The networks and the refinement in the image of `inputs.reference`:
+    /// its maps, the networks' runs and the seconds spent reading given maps.
+    fn run(
+        &self,
+        inputs: &SceneInputs,
+        tally: &mut RefineTally,
+    ) -> Result<(PositionMaps, NetRuns, f64), EstimateError> {
+        let (mut values, runs) = run_networks(self.plan, self.models, inputs, self.device)?;
+        let extra = refine_values(
+            &mut values,
+            self.plan,
+            self.bundle,
+            self.calibration,
+            inputs,
+            self.refine,
+            tally,
+        )?;
+        let maps = PositionMaps {
+            position: inputs.reference.clone(),
+            maps: written_maps(self.plan, &values, inputs),
+            extra,
+        };
+        Ok((maps, runs, values.given_s))
+    }
+}
+
+/// What the refinements of all positions did, together.
+#[derive(Default)]
+struct RefineTally {
+    ran: bool,
+    stops: BTreeMap<StopReason, u64>,
+    notes: Vec<String>,
+    seconds: f64,
+}
+
+impl RefineTally {
+    fn summary(&self, options: &RefineOptions, plan: &Plan) -> Option<RefineSummary> {
+        if !options.enabled() {
+            return None;
+        }
+        let mut fitted = Vec::new();
+        let mut kept: BTreeMap<String, String> = NOT_FITTED
+            .iter()
+            .map(|(k, why)| (k.to_string(), why.to_string()))
+            .collect();
+        for kind in [Param::Basecolor, Param::Roughness, Param::Metallic] {
+            if *plan.decision(kind) == Decision::Estimate {
+                fitted.push(kind.name().to_string());
+            } else {
+                kept.insert(
+                    kind.name().to_string(),
+                    "given or skipped: held at that value".to_string(),
+                );
+            }
+        }
+        Some(RefineSummary {
+            iterations: options.iterations,
+            illumination: options.illumination,
+            fitted: if self.ran { fitted } else { Vec::new() },
+            kept,
+            stops: StopReason::ALL
+                .iter()
+                .map(|s| {
+                    (
+                        s.name().to_string(),
+                        self.stops.get(s).copied().unwrap_or(0),
+                    )
+                })
+                .collect(),
+            notes: self.notes.clone(),
+        })
+    }
+}
+
+/// Refines basecolor, roughness and metallic of `values` in place when the
+/// options ask for it; the confidence maps of the fitted parameters by file
+/// stem (`<param>_confidence`), empty when it did not run.
+fn refine_values(
+    values: &mut Values,
+    plan: &Plan,
+    bundle: &Bundle,
+    calibration: &ScanCalibration,
+    inputs: &SceneInputs,
+    options: &RefineOptions,
+    tally: &mut RefineTally,
+) -> Result<BTreeMap<String, ScalarRaster>, EstimateError> {
+    let mut extra = BTreeMap::new();
+    if !options.enabled() {
+        return Ok(extra);
+    }
+    let scalar = |k: Param| values.scalar.get(&k);
+    let (Some(basecolor), Some(roughness), Some(metallic), Some(transmission), Some(subsurface)) = (
+        values.basecolor.as_ref(),
+        scalar(Param::Roughness),
+        scalar(Param::Metallic),
+        scalar(Param::Transmission),
+        scalar(Param::Subsurface),
+    ) else {
+        let note = "refinement skipped: it needs all five parameters (run without --only)";
+        if !tally.notes.iter().any(|n| n == note) {
+            tally.notes.push(note.to_string());
+        }
+        return Ok(extra);
+    };
+    let held = |k: Param| *plan.decision(k) != Decision::Estimate;
+    let hold = Hold {
+        basecolor: held(Param::Basecolor),
+        roughness: held(Param::Roughness),
+        metallic: held(Param::Metallic),
+    };
+    let start = Start {
+        basecolor,
+        roughness,
+        metallic,
+        transmission,
+        subsurface,
+        mask: &inputs.mask.data,
+        hold,
+    };
+    let illumination: Option<Vec<Vec<f32>>> = values.illumination.as_ref().map(|views| {
+        views
+            .iter()
+            .map(|v| v.iter().map(|&c| uncentre(c)).collect())
+            .collect()
+    });
+    let refined = refine_scene(
+        bundle,
+        calibration,
+        inputs,
+        &start,
+        illumination.as_deref(),
+        options,
+    )?;
+    tally.ran = true;
+    tally.seconds += refined.seconds;
+    for (stop, count) in &refined.stops {
+        *tally.stops.entry(*stop).or_insert(0) += count;
+    }
+    for note in refined.notes {
+        if !tally.notes.contains(&note) {
+            tally.notes.push(note);
+        }
+    }
+    let (w, h) = (inputs.width as u32, inputs.height as u32);
+    let mut put = |kind: Param, data: Vec<f32>| {
+        if let Some(map) = ScalarRaster::from_vec(w, h, data) {
+            extra.insert(format!("{}_confidence", kind.name()), map);
+        }
+    };
+    if !hold.basecolor {
+        put(
+            Param::Basecolor,
+            refined.confidence.iter().map(|c| c.basecolor).collect(),
+        );
+        values.basecolor = Some(refined.basecolor);
+    }
+    if !hold.roughness {
+        put(
+            Param::Roughness,
+            refined.confidence.iter().map(|c| c.roughness).collect(),
+        );
+        values.scalar.insert(Param::Roughness, refined.roughness);
+    }
+    if !hold.metallic {
+        put(
+            Param::Metallic,
+            refined.confidence.iter().map(|c| c.metallic).collect(),
+        );
+        values.scalar.insert(Param::Metallic, refined.metallic);
+    }
+    Ok(extra)
+}
+
+/// The views `kind`'s network fuses.
+fn views_for(kind: Param, inputs: &SceneInputs) -> Vec<usize> {
+    (0..inputs.views.len())
+        .filter(|&i| {
+            let v = &inputs.views[i];
+            match kind {
+                Param::Transmission => v.has_backlit(),
+                Param::Subsurface => v.has_checker(),
+                _ => true,
+            }
+        })
+        .collect()
+}
+
+/// Runs the networks of one stage concurrently.
+fn run_stage(
+    stage: &[Param],
+    models: &Models,
+    inputs: &SceneInputs,
+    values: &Values,
+    device: &Device,
+) -> Result<Vec<NetRun>, EstimateError> {
+    let metallic = values.scalar.get(&Param::Metallic);
+    let transmission = values.scalar.get(&Param::Transmission);
+    let subsurface = values.scalar.get(&Param::Subsurface);
+    let transmission_final: Option<Vec<f32>> = match (transmission, metallic) {
+        (Some(t), Some(m)) => Some(t.iter().zip(m).map(|(t, m)| t * (1.0 - m)).collect()),
+        _ => None,
+    };
+    let subsurface_final: Option<Vec<f32>> = match (subsurface, &transmission_final, metallic) {
+        (Some(s), Some(_), Some(m)) => transmission.map(|t| {
+            s.iter()
+                .zip(m)
+                .zip(t)
+                .map(|((s, m), t)| s * (1.0 - m) * (1.0 - t))
+                .collect()
+        }),
+        _ => None,
+    };
+    let deps = Dependencies {
+        metallic: metallic.map(Vec::as_slice),
+        transmission_final: transmission_final.as_deref(),
+        subsurface_final: subsurface_final.as_deref(),
+        roughness: values.scalar.get(&Param::Roughness).map(Vec::as_slice),
+        illumination: values.illumination.as_deref(),
+    };
+    let run_one = |kind: Param| -> Result<NetRun, EstimateError> {
+        let t = Instant::now();
+        let model = models.get(kind).ok_or(ModelsError::NotProvided(kind))?;
+        let which = views_for(kind, inputs);
+        let tensors = inputs.tensors(kind, &which, &deps, device)?;
+        let out = model
+            .net
+            .forward(&tensors)
+            .map_err(|source| EstimateError::Network { kind, source })?;
+        let read = |t: burn::tensor::Tensor<4>| {
+            t.into_data()
+                .try_to_vec::<f32>()
+                .map_err(|e| EstimateError::Readback {
+                    kind,
+                    message: format!("{e:?}"),
+                })
+        };
+        let fused = read(out.fused)?;
+        let n = inputs.pixels();
+        let mut per_view = Vec::with_capacity(out.per_view.len());
+        for t in out.per_view {
+            let mut v = read(t)?;
+            v.truncate(n);
+            per_view.push(v);
+        }
+        Ok(NetRun {
+            kind,
+            fused,
+            per_view,
+            views: which.len(),
+            seconds: t.elapsed().as_secs_f64(),
+        })
+    };
+    let results: Vec<Result<NetRun, EstimateError>> = std::thread::scope(|scope| {
+        let handles: Vec<_> = stage
+            .iter()
+            .map(|&kind| scope.spawn(move || run_one(kind)))
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| match h.join() {
+                Ok(result) => result,
+                Err(panic) => std::panic::resume_unwind(panic),
+            })
+            .collect()
+    });
+    results.into_iter().collect()
+}
+
+/// Keeps a network's result as the parameter's value (unless given) and
+/// roughness's illumination.
+fn store(values: &mut Values, plan: &Plan, run: NetRun, inputs: &SceneInputs) {
+    let n = inputs.pixels();
+    let mask = &inputs.mask.data;
+    if run.kind == Param::Roughness {
+        values.illumination = Some(run.per_view);
+    }
+    if plan.decision(run.kind) != &Decision::Estimate {
+        return;
+    }
+    if run.kind == Param::Basecolor {
+        let rgb = (0..n)
+            .map(|i| {
+                if !mask[i] {
+                    return [0.0; 3];
+                }
+                rgb_of_ycbcr([0, 1, 2].map(|c| uncentre(run.fused[c * n + i])))
+            })
+            .collect();
+        values.basecolor = Some(rgb);
+    } else {
+        let map = (0..n)
+            .map(|i| if mask[i] { uncentre(run.fused[i]) } else { 0.0 })
+            .collect();
+        values.scalar.insert(run.kind, map);
+    }
+}
+
+fn set_constant(values: &mut Values, kind: Param, v: f32, inputs: &SceneInputs) {
+    let n = inputs.pixels();
+    if kind == Param::Basecolor {
+        values.basecolor = Some(vec![[v; 3]; n]);
+    } else {
+        values.scalar.insert(kind, vec![v; n]);
+    }
+}
+
+fn set_given(
+    values: &mut Values,
+    kind: Param,
+    given: &Given,
+    inputs: &SceneInputs,
+) -> Result<(), EstimateError> {
+    let path = match given {
+        Given::Constant(v) => {
+            set_constant(values, kind, *v, inputs);
+            return Ok(());
+        }
+        Given::Map(path) => path,
+    };
+    let fail = |reason: String| EstimateError::GivenMap {
+        param: kind,
+        path: path.clone(),
+        reason,
+    };
+    let (w, h) = (inputs.width as u32, inputs.height as u32);
+    let unit = |v: f32| v.clamp(0.0, 1.0);
+    if kind == Param::Basecolor {
+        let map = read_rgb_exr(path).map_err(|e| fail(e.to_string()))?;
+        if (map.width, map.height) != (w, h) {
+            return Err(fail(size_reason(map.width, map.height, w, h)));
+        }
+        values.basecolor = Some(map.data.iter().map(|c| c.map(unit)).collect());
+    } else {
+        let map = read_scalar_exr(path).map_err(|e| fail(e.to_string()))?;
+        if (map.width, map.height) != (w, h) {
+            return Err(fail(size_reason(map.width, map.height, w, h)));
+        }
+        values
+            .scalar
+            .insert(kind, map.data.iter().map(|&v| unit(v)).collect());
+    }
+    Ok(())
+}
+
+fn size_reason(w: u32, h: u32, want_w: u32, want_h: u32) -> String {
+    format!("the map is {w}x{h}, the reference camera image is {want_w}x{want_h}")
+}
+
+/// The maps to write: every estimated or given parameter.
+fn written_maps(plan: &Plan, values: &Values, inputs: &SceneInputs) -> BTreeMap<Param, ParamMap> {
+    let (w, h) = (inputs.width as u32, inputs.height as u32);
+    let mut maps = BTreeMap::new();
+    for kind in crate::net::spec::PIPELINE_ORDER {
+        if matches!(plan.decision(kind), Decision::Skip { .. }) {
+            continue;
+        }
+        let map = if kind == Param::Basecolor {
+            values
+                .basecolor
+                .clone()
+                .and_then(|d| RgbRaster::from_vec(w, h, d))
+                .map(ParamMap::Rgb)
+        } else {
+            values
+                .scalar
+                .get(&kind)
+                .cloned()
+                .and_then(|d| ScalarRaster::from_vec(w, h, d))
+                .map(ParamMap::Scalar)
+        };
+        if let Some(map) = map {
+            maps.insert(kind, map);
+        }
+    }
+    maps
+}
+
+/// MAD, MSE and PSNR of each written map against the truth, over the truth
+/// mask (the reference object mask where the scan has no truth mask).
+fn metrics(
+    bundle: &Bundle,
+    reference: &str,
+    maps: &BTreeMap<Param, ParamMap>,
+    inputs: &SceneInputs,
+) -> Result<BTreeMap<String, crate::pipeline::metrics::ErrorMetrics>, EstimateError> {
+    let mask = match bundle.read_truth(reference, &TruthMap::Mask)? {
+        Some(m) => m.into_mask().map(|m| m.data),
+        None => None,
+    }
+    .unwrap_or_else(|| inputs.mask.data.clone());
+    let mut out = BTreeMap::new();
+    for (kind, map) in maps {
+        let Ok(param) = kind.name().parse::<Param>() else {
+            continue;
+        };
+        let Some(truth) = bundle.read_truth(reference, &TruthMap::Param(param))? else {
+            continue;
+        };
+        let found = match (map, truth) {
+            (ParamMap::Rgb(e), matscan_scan::TruthImage::Rgb(t)) => {
+                error_metrics(e.data.as_flattened(), t.data.as_flattened(), &mask, 3)
+            }
+            (ParamMap::Scalar(e), matscan_scan::TruthImage::Scalar(t)) => {
+                error_metrics(&e.data, &t.data, &mask, 1)
+            }
+            _ => None,
+        };
+        if let Some(m) = found {
+            out.insert(kind.name().to_string(), m);
+        }
+    }
+    Ok(out)
+}

@@ -1,0 +1,142 @@
+//! The chained estimate a user gets (`matscan estimate`, every network fed
+//! the estimates before it, the thesis's section 4.8), scored against the
+//! truth scan by scan.
+
+use super::tables::{scene_group, GroupBy, SceneResult};
+use super::truth::{truth_mask, truth_values};
+use super::{Configuration, EvalOptions};
+use crate::scans::view_filter;
+use anyhow::{Context, Result};
+use burn::tensor::Device;
+use matscan_estimate::pipeline::metrics::error_metrics;
+use matscan_estimate::{estimate, EstimateOptions, ModelSource, References};
+use matscan_scan::Bundle;
+use matscan_scan::Param;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// Estimates `scan` with `options` and compares with its truth; the
+/// baseline (a constant map per parameter) is compared too where given.
+/// The estimate's folder is removed again. An `Err` is a scan that could
+/// not be estimated (the caller counts it as failed).
+pub fn evaluate_scene(
+    scan: &Path,
+    models: ModelSource,
+    options: &EstimateOptions,
+    device: &Device,
+    group_by: GroupBy,
+    baseline: Option<&BTreeMap<Param, f64>>,
+) -> Result<SceneResult> {
+    evaluate_scene_with(
+        scan,
+        models,
+        options,
+        device,
+        group_by,
+        baseline,
+        &mut |_, _, _| {},
+    )
+}
+
+/// [`evaluate_scene`], handing the opened scan, the estimate's folder and
+/// the reference position to `inspect` before the folder is removed
+/// (`--textures` scores the estimate there).
+pub fn evaluate_scene_with(
+    scan: &Path,
+    models: ModelSource,
+    options: &EstimateOptions,
+    device: &Device,
+    group_by: GroupBy,
+    baseline: Option<&BTreeMap<Param, f64>>,
+    inspect: &mut dyn FnMut(&Bundle, &Path, &str),
+) -> Result<SceneResult> {
+    let bundle = Bundle::open(scan)?;
+    let report = estimate(scan, models, options, device)
+        .with_context(|| format!("estimating {}", scan.display()))?;
+    let reference = report.result.reference_position.as_str();
+    inspect(&bundle, &report.out, reference);
+    let _ = std::fs::remove_dir_all(&report.out);
+    let mut result = SceneResult {
+        scan: scan.to_path_buf(),
+        group: scene_group(&bundle.manifest.name, group_by),
+        seconds: report.result.timings.total_s,
+        metrics: BTreeMap::new(),
+        baseline: BTreeMap::new(),
+    };
+    // The truth mask is read once, and only when a baseline is compared.
+    let mask = match baseline {
+        Some(_) => truth_mask(&bundle, reference)?,
+        None => None,
+    };
+    for kind in matscan_estimate::PIPELINE_ORDER {
+        let Some(m) = report.result.metrics.get(kind.name()) else {
+            continue;
+        };
+        result.metrics.insert(kind, *m);
+        let (Some(mean), Some(mask)) = (baseline.and_then(|b| b.get(&kind)), mask.as_deref())
+        else {
+            continue;
+        };
+        let Some((values, channels)) = truth_values(&bundle, reference, kind)? else {
+            continue;
+        };
+        let constant = vec![*mean as f32; values.len()];
+        if let Some(b) = error_metrics(&constant, &values, mask, channels) {
+            result.baseline.insert(kind, b);
+        }
+    }
+    Ok(result)
+}
+
+/// Every configuration of `views` through the chained estimate.
+pub(super) fn chained_configurations(
+    args: &EvalOptions,
+    scans: &[PathBuf],
+    views_of: &[Option<Vec<String>>],
+    baseline: &BTreeMap<Param, f64>,
+    scratch: &Path,
+    device: &Device,
+) -> Vec<Configuration> {
+    let models = || match &args.weights {
+        Some(dir) => ModelSource::Dir(dir.clone()),
+        None => ModelSource::Embedded,
+    };
+    let mut out = Vec::with_capacity(args.views.len());
+    for &count in &args.views {
+        let mut c = Configuration::default();
+        for (i, scan) in scans.iter().enumerate() {
+            let options = EstimateOptions {
+                out: Some(scratch.join(format!("{count}-{i}"))),
+                filter: view_filter(count, views_of[i].as_deref()),
+                // Texture scores bake what `matscan export` bakes: maps of
+                // every position (one network pass per position).
+                references: if args.textures.is_some() {
+                    References::Every
+                } else {
+                    References::First
+                },
+                ..EstimateOptions::default()
+            };
+            let textures = &mut c.textures;
+            match evaluate_scene_with(
+                scan,
+                models(),
+                &options,
+                device,
+                args.group_by,
+                Some(baseline),
+                &mut |bundle, out, reference| {
+                    if let Some(size) = args.textures {
+                        textures.add_scan(bundle, out, reference, size);
+                    }
+                },
+            ) {
+                Ok(r) => c.results.push(r),
+                Err(e) => c.failures.push(format!("{e:#}")),
+            }
+        }
+        let _ = std::fs::remove_dir_all(scratch);
+        out.push(c);
+    }
+    out
+}

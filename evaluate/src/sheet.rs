@@ -1,0 +1,292 @@
+//! Contact sheets: one PNG showing a bundle at a glance, the way the
+//! thesis's figure 3.4 shows a scene — every capture of every position, the
+//! mask, the truth maps and estimates where present. Renderer bugs are
+//! easiest seen here.
+//!
+//! Photos are shown as radiance (divided by exposure) with one exposure per
+//! position, so the relative brightness of captures stays comparable: the
+//! 99.5th percentile of luminance over all of a position's photos maps to
+//! white. Maps in [0, 1] are shown as they are, in sRGB.
+
+use crate::plot::font;
+use anyhow::{Context, Result};
+use matscan_calib::{calibrate_bundle, CalibOptions, PositionMaps};
+use matscan_scan::bundle::TruthImage;
+use matscan_scan::raster::{MaskRaster, Raster, RgbRaster, ScalarRaster};
+use matscan_scan::{Bundle, Param, TruthMap};
+use std::path::Path;
+
+/// One labelled picture on the sheet.
+struct Tile {
+    label: String,
+    width: u32,
+    height: u32,
+    /// Linear RGB, clamped to [0, 1].
+    rgb: Vec<f32>,
+}
+
+const LABEL_H: u32 = font::GLYPH_H + 5;
+const GAP: u32 = 4;
+const MAX_TILE: u32 = 192;
+
+/// Draws the contact sheet of the bundle at `scan` into `out` (PNG).
+pub fn draw_contact_sheet(scan: &Path, out: &Path) -> Result<()> {
+    let bundle = Bundle::open(scan).with_context(|| format!("opening scan {}", scan.display()))?;
+    // Calibration maps are drawn too: a pose or light mix-up shows as maps
+    // that disagree with the photos above them. A scan that cannot be
+    // calibrated still gets its sheet, with the reason on stderr.
+    let calibration = match calibrate_bundle(&bundle, &CalibOptions::default()) {
+        Ok(c) => Some(c),
+        Err(e) => {
+            eprintln!("warning: no calibration rows on the sheet: {e}");
+            None
+        }
+    };
+    let mut rows: Vec<(String, Vec<Tile>)> = Vec::new();
+    for position in &bundle.manifest.positions {
+        let mut photos = Vec::new();
+        for capture in &position.captures {
+            let img = bundle
+                .read_photo(&position.name, &capture.name)
+                .with_context(|| format!("position {} capture {}", position.name, capture.name))?;
+            let scale = 1.0 / capture.exposure_s.max(1e-12) as f32;
+            photos.push((capture.name.clone(), img.map(|p| p.map(|c| c * scale))));
+        }
+        let white = white_point(photos.iter().map(|(_, r)| r));
+        let mut tiles: Vec<Tile> = photos
+            .iter()
+            .map(|(name, r)| tile_rgb(name, &r.map(|p| p.map(|c| c / white))))
+            .collect();
+        if let Some(mask) = bundle.read_mask(&position.name)? {
+            tiles.push(tile_mask("mask", &mask));
+        }
+        rows.push((format!("{} captures", position.name), tiles));
+
+        let mut truth = Vec::new();
+        for param in Param::ALL {
+            let label = format!("true {param}");
+            match bundle.read_truth(&position.name, &TruthMap::Param(param))? {
+                Some(TruthImage::Rgb(map)) => truth.push(tile_rgb(&label, &map)),
+                Some(TruthImage::Scalar(map)) => truth.push(tile_scalar(&label, &map)),
+                Some(TruthImage::Mask(map)) => truth.push(tile_mask(&label, &map)),
+                None => {}
+            }
+        }
+        for capture in &position.captures {
+            let illum = TruthMap::Illum(capture.name.clone());
+            if let Some(TruthImage::Rgb(map)) = bundle.read_truth(&position.name, &illum)? {
+                let w = white_point(std::iter::once(&map));
+                truth.push(tile_rgb(
+                    &format!("illum {}", capture.name),
+                    &map.map(|p| p.map(|c| c / w)),
+                ));
+            }
+        }
+        if !truth.is_empty() {
+            rows.push((format!("{} truth", position.name), truth));
+        }
+
+        if let Some(pc) = calibration
+            .as_ref()
+            .and_then(|c| c.position(&position.name))
+        {
+            rows.push((format!("{} calib", position.name), calib_tiles(&pc.maps)));
+        }
+
+        let mut estimates = Vec::new();
+        for param in Param::ALL {
+            let path = scan
+                .join(matscan_estimate::pipeline::output::ESTIMATE_DIR)
+                .join(&position.name)
+                .join(format!("{param}.exr"));
+            if path.exists() {
+                let map = matscan_scan::image_io::read_rgb(&path, None)
+                    .with_context(|| format!("reading estimate {}", path.display()))?;
+                estimates.push(tile_rgb(&format!("est {param}"), &map));
+            }
+        }
+        if !estimates.is_empty() {
+            rows.push((format!("{} estimate", position.name), estimates));
+        }
+    }
+    let title = format!("{}  {}", bundle.manifest.name, scan.display());
+    compose(&title, &rows, out)
+}
+
+/// Normal and view as colours (`0.5 + 0.5 v`), depth normalized over the
+/// object, cosines as grey (negative as black), shadows per light.
+fn calib_tiles(maps: &PositionMaps) -> Vec<Tile> {
+    let g = &maps.geometry;
+    let as_colour = |r: &RgbRaster| {
+        let data = r
+            .data
+            .iter()
+            .zip(&g.mask.data)
+            .map(|(v, &m)| {
+                // sRGB previews expect linear values: undo the curve so the
+                // encoded colour reads as the vector.
+                let c = v.map(|x| 0.5 + 0.5 * x);
+                if m {
+                    c.map(matscan_scan::image_io::srgb_to_linear)
+                } else {
+                    [0.0; 3]
+                }
+            })
+            .collect();
+        Raster {
+            width: r.width,
+            height: r.height,
+            data,
+        }
+    };
+    let (lo, hi) = g
+        .depth
+        .data
+        .iter()
+        .zip(&g.mask.data)
+        .filter(|(_, &m)| m)
+        .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), (&d, _)| {
+            (lo.min(d), hi.max(d))
+        });
+    let span = (hi - lo).max(1e-12);
+    let depth = g.depth.map(|&d| {
+        if d > 0.0 {
+            ((d - lo) / span).clamp(0.0, 1.0)
+        } else {
+            0.0
+        }
+    });
+    let mut tiles = vec![
+        tile_rgb("normal", &as_colour(&g.normal)),
+        tile_scalar("depth", &depth),
+        tile_scalar("cos nv", &g.cos_nv),
+    ];
+    for l in &maps.lights {
+        tiles.push(tile_scalar(&format!("cos nl {}", l.light), &l.cos_nl));
+        tiles.push(tile_scalar(
+            &format!("shadow {}", l.light),
+            &l.shadow(&g.mask),
+        ));
+    }
+    tiles
+}
+
+/// The luminance that maps to white: a high percentile, so a few specular
+/// spikes do not darken everything else.
+fn white_point<'a>(images: impl Iterator<Item = &'a RgbRaster>) -> f32 {
+    let mut lum: Vec<f32> = images
+        .flat_map(|r| r.data.iter())
+        .map(|p| 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2])
+        .filter(|l| l.is_finite() && *l > 0.0)
+        .collect();
+    if lum.is_empty() {
+        return 1.0;
+    }
+    let k = ((lum.len() - 1) as f32 * 0.995) as usize;
+    let (_, v, _) = lum.select_nth_unstable_by(k, |a, b| a.total_cmp(b));
+    v.max(1e-12)
+}
+
+fn unit(linear: f32) -> f32 {
+    if linear.is_finite() {
+        linear.clamp(0.0, 1.0)
+    } else {
+        0.0
+    }
+}
+
+/// Box-downscales by an integer factor so tiles stay at most `MAX_TILE`.
+fn tile_rgb(label: &str, img: &RgbRaster) -> Tile {
+    let f = img.width.max(img.height).div_ceil(MAX_TILE).max(1);
+    let (w, h) = (img.width.div_ceil(f), img.height.div_ceil(f));
+    let mut rgb = Vec::with_capacity((w * h * 3) as usize);
+    for ty in 0..h {
+        for tx in 0..w {
+            let mut acc = [0.0f32; 3];
+            let mut n = 0.0;
+            for y in ty * f..((ty + 1) * f).min(img.height) {
+                for x in tx * f..((tx + 1) * f).min(img.width) {
+                    let p = img.get(x, y);
+                    for c in 0..3 {
+                        acc[c] += p[c];
+                    }
+                    n += 1.0;
+                }
+            }
+            rgb.extend(acc.map(|a| unit(a / n)));
+        }
+    }
+    Tile {
+        label: label.to_string(),
+        width: w,
+        height: h,
+        rgb,
+    }
+}
+
+fn tile_mask(label: &str, mask: &MaskRaster) -> Tile {
+    tile_rgb(label, &mask.map(|&m| if m { [1.0; 3] } else { [0.0; 3] }))
+}
+
+fn tile_scalar(label: &str, map: &ScalarRaster) -> Tile {
+    tile_rgb(label, &map.map(|&v| [v; 3]))
+}
+
+fn compose(title: &str, rows: &[(String, Vec<Tile>)], out: &Path) -> Result<()> {
+    let row_label_w = rows
+        .iter()
+        .map(|(l, _)| font::text_width(l, 1))
+        .max()
+        .unwrap_or(0)
+        + 2 * GAP;
+    let row_w = |tiles: &[Tile]| tiles.iter().map(|t| t.width + GAP).sum::<u32>();
+    let row_h = |tiles: &[Tile]| tiles.iter().map(|t| t.height).max().unwrap_or(0) + LABEL_H;
+    let width = (row_label_w + rows.iter().map(|(_, t)| row_w(t)).max().unwrap_or(0) + GAP)
+        .max(font::text_width(title, 1) + 2 * GAP);
+    let height = LABEL_H + GAP + rows.iter().map(|(_, t)| row_h(t) + GAP).sum::<u32>();
+    let mut buf = vec![0.015f32; (width * height * 3) as usize];
+    font::draw_text(&mut buf, width, height, GAP, 2, 1, [1.0, 1.0, 1.0], title);
+    let mut y = LABEL_H + GAP;
+    for (label, tiles) in rows {
+        font::draw_text(
+            &mut buf,
+            width,
+            height,
+            GAP,
+            y + LABEL_H,
+            1,
+            [0.6, 0.6, 0.6],
+            label,
+        );
+        let mut x = row_label_w;
+        for t in tiles {
+            font::draw_text(
+                &mut buf,
+                width,
+                height,
+                x,
+                y + 2,
+                1,
+                [0.8, 0.8, 0.2],
+                &t.label,
+            );
+            for ty in 0..t.height {
+                let src = (ty * t.width * 3) as usize;
+                let dst = (((y + LABEL_H + ty) * width + x) * 3) as usize;
+                buf[dst..dst + (t.width * 3) as usize]
+                    .copy_from_slice(&t.rgb[src..src + (t.width * 3) as usize]);
+            }
+            x += t.width + GAP;
+        }
+        y += row_h(tiles) + GAP;
+    }
+    let img = Raster::from_vec(
+        width,
+        height,
+        buf.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
+    )
+    .context("sheet buffer size")?;
+    matscan_scan::image_io::write_preview_png(out, &img)
+        .with_context(|| format!("writing contact sheet {}", out.display()))?;
+    Ok(())
+}
