@@ -9,13 +9,13 @@
 use crate::atlas::Atlas;
 use crate::error::BakeError;
 use crate::fuse::{fuse, FuseOptions};
-use crate::maps::{ParamMap, PositionMaps};
+use crate::maps::BakeInput;
 use crate::pushpull::push_pull;
 use crate::textures::BakedTextures;
 use crate::views::View;
 use matscan_scan::bundle::TruthMap;
 use matscan_scan::bvh::RayCaster;
-use matscan_scan::image_io::{read_rgb_exr, read_scalar_exr};
+use matscan_scan::estimate_maps::{read_position_maps, ParamMap, PositionMaps};
 use matscan_scan::raster::{MaskRaster, RgbRaster, ScalarRaster};
 use matscan_scan::{Bundle, Param};
 use std::path::Path;
@@ -50,7 +50,7 @@ impl Default for BakeOptions {
 /// out of the result.
 pub fn bake_maps(
     bundle: &Bundle,
-    positions: &[PositionMaps],
+    positions: &[BakeInput],
     options: &BakeOptions,
 ) -> Result<BakedTextures, BakeError> {
     if options.size == 0 || options.size > MAX_SIZE {
@@ -70,7 +70,7 @@ pub fn bake_maps(
         .filter(|p| {
             positions
                 .iter()
-                .any(|pm| pm.maps.iter().any(|m| m.param() == *p))
+                .any(|pm| pm.position_maps.get(*p).is_some())
         })
         .collect();
     if slots.is_empty() {
@@ -172,45 +172,22 @@ pub fn bake_scan(
 pub fn read_estimate_maps(
     bundle: &Bundle,
     estimate_dir: &Path,
-) -> Result<Vec<PositionMaps>, BakeError> {
+) -> Result<Vec<BakeInput>, BakeError> {
     let mut out = Vec::new();
     for position in &bundle.manifest.positions {
-        let dir = estimate_dir.join(&position.name);
-        let mut maps = Vec::new();
-        for param in Param::ALL {
-            let path = dir.join(format!("{}.exr", param.name()));
-            if !path.is_file() {
-                continue;
-            }
-            let map = if param == Param::Basecolor {
-                ParamMap::basecolor(read_rgb_exr(&path)?)
-            } else {
-                ParamMap::scalar(param, read_scalar_exr(&path)?)?
-            };
-            let conf_path = dir.join(format!("{}_confidence.exr", param.name()));
-            let map = if conf_path.is_file() {
-                map.with_confidence(read_scalar_exr(&conf_path)?)
-                    .map_err(|e| BakeError::format(&conf_path, e.to_string()))?
-            } else {
-                map
-            };
-            maps.push(map);
+        if let Some(position_maps) = read_position_maps(estimate_dir, &position.name)? {
+            out.push(BakeInput {
+                position_maps,
+                mask: bundle.read_mask(&position.name)?,
+            });
         }
-        if maps.is_empty() {
-            continue;
-        }
-        out.push(PositionMaps {
-            position: position.name.clone(),
-            mask: bundle.read_mask(&position.name)?,
-            maps,
-        });
     }
     Ok(out)
 }
 
 /// Reads every position's truth maps of a simulated scan (with the truth
 /// mask); positions without truth are left out.
-pub fn read_truth_maps(bundle: &Bundle) -> Result<Vec<PositionMaps>, BakeError> {
+pub fn read_truth_maps(bundle: &Bundle) -> Result<Vec<BakeInput>, BakeError> {
     let mut out = Vec::new();
     for position in &bundle.manifest.positions {
         let name = &position.name;
@@ -234,10 +211,12 @@ pub fn read_truth_maps(bundle: &Bundle) -> Result<Vec<PositionMaps>, BakeError> 
         let mask = bundle
             .read_truth(name, &TruthMap::Mask)?
             .and_then(|m| m.into_mask());
-        out.push(PositionMaps {
-            position: name.clone(),
+        out.push(BakeInput {
+            position_maps: PositionMaps {
+                position: name.clone(),
+                maps,
+            },
             mask,
-            maps,
         });
     }
     Ok(out)

@@ -9,6 +9,9 @@ pub enum BakeError {
     /// Reading or writing a bundle file failed.
     #[error(transparent)]
     Scan(#[from] ScanError),
+    /// A map that breaks its parameter's rules.
+    #[error(transparent)]
+    Map(#[from] matscan_scan::estimate_maps::MapError),
     /// The operating system refused a read or write outside the scan crate.
     #[error("{path}: {source}")]
     Io {

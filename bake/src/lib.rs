@@ -37,7 +37,7 @@ pub use bake::{
 pub use error::BakeError;
 pub use fuse::FuseOptions;
 pub use gltf_export::{export_gltf, GltfFormat};
-pub use maps::{MapValues, ParamMap, PositionMaps};
+pub use maps::BakeInput;
 pub use textures::{
     read_textures, texel_uv, texture_dir, texture_path, write_textures, BakedTextures,
 };

@@ -10,10 +10,11 @@
 
 use crate::distance::distance_to_background;
 use crate::error::BakeError;
-use crate::maps::{MapValues, PositionMaps};
+use crate::maps::BakeInput;
 use crate::sampling::{scalar_plane, Plane};
 use glam::Vec3;
 use matscan_scan::bvh::RayCaster;
+use matscan_scan::estimate_maps::MapValues;
 use matscan_scan::{Manifest, Param, PinholeCamera, ScanError};
 use std::path::Path;
 
@@ -47,18 +48,18 @@ impl View {
         manifest: &Manifest,
         manifest_path: &Path,
         caster: &RayCaster,
-        input: &PositionMaps,
+        input: &BakeInput,
         slots: &[Param],
     ) -> Result<View, BakeError> {
         let position = manifest
             .positions
             .iter()
-            .find(|p| p.name == input.position)
+            .find(|p| p.name == input.position_maps.position)
             .ok_or_else(|| ScanError::NotInManifest {
                 path: manifest_path.to_path_buf(),
                 message: format!(
                     "maps were given for position `{}`, which the manifest does not list",
-                    input.position
+                    input.position_maps.position
                 ),
             })?;
         let calib = matscan_calib::position_maps(caster, &manifest.camera, position);
@@ -70,7 +71,7 @@ impl View {
         let mut valid = calib.geometry.mask.data.clone();
         if let Some(mask) = &input.mask {
             check_size(
-                &input.position,
+                &input.position_maps.position,
                 "mask",
                 mask.width,
                 mask.height,
@@ -91,7 +92,7 @@ impl View {
             }
         }
         let mut maps: Vec<Option<ViewMap>> = vec![None; slots.len()];
-        for map in &input.maps {
+        for map in &input.position_maps.maps {
             let Some(slot) = slots.iter().position(|&p| p == map.param()) else {
                 continue;
             };
@@ -100,7 +101,7 @@ impl View {
                 MapValues::Scalar(r) => (r.width, r.height, r.data.len()),
             };
             check_size(
-                &input.position,
+                &input.position_maps.position,
                 map.param().name(),
                 w,
                 h,
@@ -122,7 +123,7 @@ impl View {
             if let Some(c) = map.confidence() {
                 let what = format!("{}_confidence", map.param());
                 check_size(
-                    &input.position,
+                    &input.position_maps.position,
                     &what,
                     c.width,
                     c.height,

@@ -3,8 +3,8 @@
 
 mod daemon_support;
 
-use matscan_estimate::Backend;
 use daemon_support::{matscan, simulate_sphere, stdout, weights_dir};
+use matscan_estimate::Backend;
 use std::path::Path;
 
 /// A 48 px sphere scan with two positions.

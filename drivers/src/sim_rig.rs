@@ -194,19 +194,7 @@ impl SimBench {
 
 /// The scene with its camera intrinsics scaled to `width` x `height`.
 fn scaled(mut scene: Scene, width: u32, height: u32) -> Scene {
-    let k = &mut scene.rig.intrinsics;
-    if width > 0 && height > 0 && k.width > 0 && k.height > 0 {
-        let (sx, sy) = (
-            width as f64 / k.width as f64,
-            height as f64 / k.height as f64,
-        );
-        k.fx *= sx;
-        k.cx *= sx;
-        k.fy *= sy;
-        k.cy *= sy;
-        k.width = width;
-        k.height = height;
-    }
+    scene.rig.intrinsics = scene.rig.intrinsics.scaled_to(width, height);
     scene
 }
 

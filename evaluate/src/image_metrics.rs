@@ -60,8 +60,9 @@ pub fn reinhard(x: f32) -> f32 {
     x / (1.0 + x)
 }
 
-/// Rec. 709 luminance of the tone-mapped image, in [0, 1).
-pub fn luma(image: &RgbRaster) -> ScalarRaster {
+/// Rec. 709 relative luminance of the tone-mapped image, in [0, 1) (not
+/// the BT.601 luma the networks' inputs use, `matscan_calib::photos::luma`).
+pub fn tone_mapped_luminance(image: &RgbRaster) -> ScalarRaster {
     image.map(|p| {
         let [r, g, b] = p.map(tone_map);
         0.2126 * r + 0.7152 * g + 0.0722 * b
@@ -74,7 +75,7 @@ pub fn compare(a: &RgbRaster, b: &RgbRaster, mask: &MaskRaster) -> Option<Simila
     if !a.same_size(b) || !a.same_size(mask) {
         return None;
     }
-    let (la, lb) = (luma(a), luma(b));
+    let (la, lb) = (tone_mapped_luminance(a), tone_mapped_luminance(b));
     let ErrorMetrics {
         mad,
         mse,

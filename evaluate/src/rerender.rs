@@ -357,13 +357,8 @@ pub fn scaled_intrinsics(k: &Intrinsics, width: u32) -> Intrinsics {
     let s = f64::from(width) / f64::from(k.width.max(1));
     let height = ((f64::from(k.height) * s).round() as u32).max(1);
     Intrinsics {
-        width,
-        height,
-        fx: k.fx * s,
-        fy: k.fy * s,
-        cx: k.cx * s,
-        cy: k.cy * s,
         distortion: [0.0; 5],
+        ..k.scaled(s, s, width, height)
     }
 }
 

@@ -28,26 +28,7 @@ pub fn collect_scans(paths: &[PathBuf]) -> Result<Vec<PathBuf>> {
 /// The scan folders under `dir` and its subfolders (one level, so a set
 /// grouped by kind works), in path order.
 pub fn scans_in(dir: &Path) -> Result<Vec<PathBuf>> {
-    let children = |d: &Path| -> Result<Vec<PathBuf>> {
-        Ok(std::fs::read_dir(d)
-            .with_context(|| format!("reading {}", d.display()))?
-            .filter_map(|e| e.ok().map(|e| e.path()))
-            .filter(|p| p.is_dir())
-            .collect())
-    };
-    let mut scans = Vec::new();
-    for child in children(dir)? {
-        if child.join("scan.toml").is_file() {
-            scans.push(child);
-        } else {
-            scans.extend(
-                children(&child)?
-                    .into_iter()
-                    .filter(|p| p.join("scan.toml").is_file()),
-            );
-        }
-    }
-    scans.sort();
+    let scans = matscan_scan::bundle::find_bundles(dir)?;
     if scans.is_empty() {
         bail!(
             "{}: no scan folders (folders holding scan.toml) found, nor one level down",

@@ -30,6 +30,35 @@ pub struct PinholeCamera {
 }
 
 impl Intrinsics {
+    /// The same camera at another image size: focal lengths and principal
+    /// point scaled by `sx` horizontally and `sy` vertically, the image
+    /// `width` x `height`; distortion, in normalized coordinates, is kept.
+    pub fn scaled(&self, sx: f64, sy: f64, width: u32, height: u32) -> Intrinsics {
+        Intrinsics {
+            width,
+            height,
+            fx: self.fx * sx,
+            fy: self.fy * sy,
+            cx: self.cx * sx,
+            cy: self.cy * sy,
+            distortion: self.distortion,
+        }
+    }
+
+    /// The same camera photographing `width` x `height` pixels (each axis
+    /// scaled by its own ratio); unchanged when either size is zero.
+    pub fn scaled_to(&self, width: u32, height: u32) -> Intrinsics {
+        if width == 0 || height == 0 || self.width == 0 || self.height == 0 {
+            return *self;
+        }
+        self.scaled(
+            f64::from(width) / f64::from(self.width),
+            f64::from(height) / f64::from(self.height),
+            width,
+            height,
+        )
+    }
+
     pub fn has_distortion(&self) -> bool {
         self.distortion.iter().any(|&d| d != 0.0)
     }

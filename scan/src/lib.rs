@@ -24,6 +24,7 @@ pub mod bvh;
 pub mod camera;
 pub mod draw;
 pub mod error;
+pub mod estimate_maps;
 pub mod image_io;
 pub mod manifest;
 pub mod mesh;

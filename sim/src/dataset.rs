@@ -135,7 +135,7 @@ pub fn seed_run(
                 seed,
                 ..base.clone()
             },
-            sim: sim.clone(),
+            sim: *sim,
         })
         .collect()
 }

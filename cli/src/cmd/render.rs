@@ -41,9 +41,6 @@ pub struct RenderArgs {
     pub texture_size: u32,
 }
 
-/// The estimate's textures: the baked files where there are some, else the
-/// per-position maps baked in memory at `bake_size` (the flag says which).
-
 /// Runs `matscan render`.
 pub fn run(a: &RenderArgs) -> Result<()> {
     let report = render(&RenderOptions {

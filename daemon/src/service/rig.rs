@@ -123,17 +123,7 @@ impl matscan_drivers::Trigger for UnpressedFootswitch {
 /// The manifest geometry of `scene` photographed at `size` x `size`
 /// (intrinsics scaled as the simulated camera scales them).
 pub fn geometry_of(scene: &Scene, size: u32) -> RigGeometry {
-    let mut intrinsics = scene.rig.intrinsics;
-    if intrinsics.width > 0 && intrinsics.height > 0 {
-        let sx = size as f64 / intrinsics.width as f64;
-        let sy = size as f64 / intrinsics.height as f64;
-        intrinsics.fx *= sx;
-        intrinsics.cx *= sx;
-        intrinsics.fy *= sy;
-        intrinsics.cy *= sy;
-        intrinsics.width = size;
-        intrinsics.height = size;
-    }
+    let intrinsics = scene.rig.intrinsics.scaled_to(size, size);
     let mut scaled = scene.clone();
     scaled.rig.intrinsics = intrinsics;
     let (small, large) = checker_periods(&scaled);

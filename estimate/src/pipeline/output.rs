@@ -1,5 +1,6 @@
-//! The `estimate/` folder: float maps and 8-bit previews of the reference
-//! position (`<position>/<param>.exr`, `.png`) and `result.toml`.
+//! The `estimate/` folder: the maps of every position written through
+//! `matscan_scan::estimate_maps` (the one reader and writer of them) and
+//! `result.toml`, this crate's record of how they were made.
 //!
 //! The folder is written whole into a hidden sibling and renamed into
 //! place, so a reader never sees a half-written estimate; an older
@@ -12,12 +13,8 @@
 
 use crate::pipeline::metrics::ErrorMetrics;
 use matscan_scan::atomic::PendingDir;
-use matscan_scan::image_io::{
-    write_preview_png, write_rgb_exr, write_scalar_exr, write_scalar_preview_png,
-};
-use matscan_scan::raster::{RgbRaster, ScalarRaster};
-use matscan_scan::Param;
-use matscan_scan::{Precision, ScanError};
+use matscan_scan::estimate_maps::{write_position_maps, PositionMaps};
+use matscan_scan::{Param, ScanError};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -25,18 +22,9 @@ use std::path::{Path, PathBuf};
 /// Value of `format` in `result.toml`.
 pub const RESULT_FORMAT: &str = "matscan-estimate/1";
 /// The estimate's folder in a scan (the contract's `estimate/`).
-pub const ESTIMATE_DIR: &str = "estimate";
+pub use matscan_scan::estimate_maps::ESTIMATE_DIR;
 /// The estimate's record in its folder.
 pub const RESULT_FILE: &str = "result.toml";
-
-/// A parameter map in the reference image, values in [0, 1].
-#[derive(Clone, Debug, PartialEq)]
-pub enum ParamMap {
-    /// One channel.
-    Scalar(ScalarRaster),
-    /// Linear RGB (basecolor).
-    Rgb(RgbRaster),
-}
 
 /// What happened to a parameter.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -169,18 +157,6 @@ fn io(path: &Path) -> impl FnOnce(std::io::Error) -> OutputError + '_ {
     }
 }
 
-/// The maps of one position, in that position's camera image.
-#[derive(Clone, Debug, Default)]
-pub struct PositionMaps {
-    /// The position's name (the folder name).
-    pub position: String,
-    /// One map per estimated or given parameter.
-    pub maps: BTreeMap<Param, ParamMap>,
-    /// Further single-channel maps by file stem (e.g. `roughness_confidence`),
-    /// written as `<stem>.exr` and `<stem>.png`.
-    pub extra: BTreeMap<String, ScalarRaster>,
-}
-
 /// Writes the maps of every position and `result` as the folder `target`,
 /// atomically, replacing an older one (and with it any textures baked from
 /// the older maps).
@@ -205,26 +181,7 @@ pub fn write_estimate(
     }
     let pending = PendingDir::create(&staged)?;
     for position in positions {
-        let dir = pending.path().join(&position.position);
-        std::fs::create_dir_all(&dir).map_err(io(&dir))?;
-        for (kind, map) in &position.maps {
-            let exr = dir.join(format!("{}.exr", kind.name()));
-            let png = dir.join(format!("{}.png", kind.name()));
-            match map {
-                ParamMap::Scalar(r) => {
-                    write_scalar_exr(&exr, r, Precision::Float)?;
-                    write_scalar_preview_png(&png, r)?;
-                }
-                ParamMap::Rgb(r) => {
-                    write_rgb_exr(&exr, r, Precision::Float)?;
-                    write_preview_png(&png, r)?;
-                }
-            }
-        }
-        for (stem, map) in &position.extra {
-            write_scalar_exr(&dir.join(format!("{stem}.exr")), map, Precision::Float)?;
-            write_scalar_preview_png(&dir.join(format!("{stem}.png")), map)?;
-        }
+        write_position_maps(&pending.path().join(&position.position), position)?;
     }
     let text = toml::to_string(result)?;
     let toml_path = pending.path().join(RESULT_FILE);
@@ -266,6 +223,8 @@ fn replace(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use matscan_scan::estimate_maps::ParamMap;
+    use matscan_scan::raster::ScalarRaster;
 
     fn result() -> ResultFile {
         let mut params = BTreeMap::new();
@@ -300,19 +259,14 @@ mod tests {
     fn an_estimate_replaces_the_old_one_whole() {
         let dir = tempfile::tempdir().unwrap();
         let target = dir.path().join("estimate");
-        let mut maps = BTreeMap::new();
-        maps.insert(
-            Param::Roughness,
-            ParamMap::Scalar(ScalarRaster::filled(4, 3, 0.25)),
-        );
+        let roughness = ParamMap::scalar(Param::Roughness, ScalarRaster::filled(4, 3, 0.25))
+            .unwrap()
+            .with_confidence(ScalarRaster::filled(4, 3, 0.5))
+            .unwrap();
         std::fs::create_dir_all(target.join("old")).unwrap();
         let positions = [PositionMaps {
             position: "p0".to_string(),
-            maps,
-            extra: BTreeMap::from([(
-                "roughness_confidence".to_string(),
-                ScalarRaster::filled(4, 3, 0.5),
-            )]),
+            maps: vec![roughness],
         }];
         write_estimate(&target, &positions, &result()).unwrap();
         assert!(target.join("p0/roughness_confidence.exr").is_file());

@@ -30,8 +30,7 @@ use crate::pipeline::inputs::{
 };
 use crate::pipeline::metrics::error_metrics;
 use crate::pipeline::output::{
-    write_estimate, OutputError, ParamMap, ParamResult, PositionMaps, ResultFile, Status, Timings,
-    RESULT_FORMAT,
+    write_estimate, OutputError, ParamResult, ResultFile, Status, Timings, RESULT_FORMAT,
 };
 use crate::pipeline::plan::{default_value, Availability, Decision, Given, Plan, PlanError};
 use crate::pipeline::views::{select_views, ViewError, ViewFilter};
@@ -40,6 +39,7 @@ use crate::refine::{
 };
 use burn::tensor::Device;
 use matscan_calib::{calibrate_bundle, CalibError, CalibOptions, ScanCalibration};
+use matscan_scan::estimate_maps::{MapError, MapValues, ParamMap, PositionMaps};
 use matscan_scan::image_io::{read_rgb_exr, read_scalar_exr};
 use matscan_scan::raster::{RgbRaster, ScalarRaster};
 use matscan_scan::{Bundle, Param, ScanError, TruthMap};
@@ -99,6 +99,10 @@ pub enum EstimateError {
     /// Assembling inputs failed.
     #[error(transparent)]
     Inputs(#[from] InputsError),
+    /// A map broke its parameter's rules (a bug, reported rather than
+    /// written).
+    #[error("estimate map: {0}")]
+    Map(#[from] MapError),
     /// A network refused its inputs.
     #[error("the {kind} network: {source}")]
     Network {
@@ -413,7 +417,7 @@ impl Pass<'_> {
         tally: &mut RefineTally,
     ) -> Result<(PositionMaps, NetRuns, f64), EstimateError> {
         let (mut values, runs) = run_networks(self.plan, self.models, inputs, self.device)?;
-        let extra = refine_values(
+        let confidence = refine_values(
             &mut values,
             self.plan,
             self.bundle,
@@ -424,8 +428,7 @@ impl Pass<'_> {
         )?;
         let maps = PositionMaps {
             position: inputs.reference.clone(),
-            maps: written_maps(self.plan, &values, inputs),
-            extra,
+            maps: written_maps(self.plan, &values, inputs, confidence)?,
         };
         Ok((maps, runs, values.given_s))
     }
@@ -490,7 +493,7 @@ fn refine_values(
     inputs: &SceneInputs,
     options: &RefineOptions,
     tally: &mut RefineTally,
-) -> Result<BTreeMap<String, ScalarRaster>, EstimateError> {
+) -> Result<BTreeMap<Param, ScalarRaster>, EstimateError> {
     let mut extra = BTreeMap::new();
     if !options.enabled() {
         return Ok(extra);
@@ -551,7 +554,7 @@ fn refine_values(
     let (w, h) = (inputs.width as u32, inputs.height as u32);
     let mut put = |kind: Param, data: Vec<f32>| {
         if let Some(map) = ScalarRaster::from_vec(w, h, data) {
-            extra.insert(format!("{}_confidence", kind.name()), map);
+            extra.insert(kind, map);
         }
     };
     if !hold.basecolor {
@@ -753,10 +756,16 @@ fn size_reason(w: u32, h: u32, want_w: u32, want_h: u32) -> String {
     format!("the map is {w}x{h}, the reference camera image is {want_w}x{want_h}")
 }
 
-/// The maps to write: every estimated or given parameter.
-fn written_maps(plan: &Plan, values: &Values, inputs: &SceneInputs) -> BTreeMap<Param, ParamMap> {
+/// The maps to write: every estimated or given parameter, with the
+/// refinement's confidence where it fitted one.
+fn written_maps(
+    plan: &Plan,
+    values: &Values,
+    inputs: &SceneInputs,
+    mut confidence: BTreeMap<Param, ScalarRaster>,
+) -> Result<Vec<ParamMap>, EstimateError> {
     let (w, h) = (inputs.width as u32, inputs.height as u32);
-    let mut maps = BTreeMap::new();
+    let mut maps = Vec::new();
     for kind in crate::net::spec::PIPELINE_ORDER {
         if matches!(plan.decision(kind), Decision::Skip { .. }) {
             continue;
@@ -766,20 +775,24 @@ fn written_maps(plan: &Plan, values: &Values, inputs: &SceneInputs) -> BTreeMap<
                 .basecolor
                 .clone()
                 .and_then(|d| RgbRaster::from_vec(w, h, d))
-                .map(ParamMap::Rgb)
+                .map(ParamMap::basecolor)
         } else {
             values
                 .scalar
                 .get(&kind)
                 .cloned()
                 .and_then(|d| ScalarRaster::from_vec(w, h, d))
-                .map(ParamMap::Scalar)
+                .map(|r| ParamMap::scalar(kind, r))
+                .transpose()?
         };
         if let Some(map) = map {
-            maps.insert(kind, map);
+            maps.push(match confidence.remove(&kind) {
+                Some(c) => map.with_confidence(c)?,
+                None => map,
+            });
         }
     }
-    maps
+    Ok(maps)
 }
 
 /// MAD, MSE and PSNR of each written map against the truth, over the truth
@@ -787,7 +800,7 @@ fn written_maps(plan: &Plan, values: &Values, inputs: &SceneInputs) -> BTreeMap<
 fn metrics(
     bundle: &Bundle,
     reference: &str,
-    maps: &BTreeMap<Param, ParamMap>,
+    maps: &[ParamMap],
     inputs: &SceneInputs,
 ) -> Result<BTreeMap<String, crate::pipeline::metrics::ErrorMetrics>, EstimateError> {
     let mask = match bundle.read_truth(reference, &TruthMap::Mask)? {
@@ -796,18 +809,16 @@ fn metrics(
     }
     .unwrap_or_else(|| inputs.mask.data.clone());
     let mut out = BTreeMap::new();
-    for (kind, map) in maps {
-        let Ok(param) = kind.name().parse::<Param>() else {
-            continue;
-        };
+    for map in maps {
+        let (kind, param) = (map.param(), map.param());
         let Some(truth) = bundle.read_truth(reference, &TruthMap::Param(param))? else {
             continue;
         };
-        let found = match (map, truth) {
-            (ParamMap::Rgb(e), matscan_scan::TruthImage::Rgb(t)) => {
+        let found = match (map.values(), truth) {
+            (MapValues::Rgb(e), matscan_scan::TruthImage::Rgb(t)) => {
                 error_metrics(e.data.as_flattened(), t.data.as_flattened(), &mask, 3)
             }
-            (ParamMap::Scalar(e), matscan_scan::TruthImage::Scalar(t)) => {
+            (MapValues::Scalar(e), matscan_scan::TruthImage::Scalar(t)) => {
                 error_metrics(&e.data, &t.data, &mask, 1)
             }
             _ => None,

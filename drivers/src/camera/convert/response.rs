@@ -5,6 +5,8 @@
 //! it where known. Boundaries: the curve only; pixel layouts are
 //! `super::formats`'.
 
+use matscan_scan::image_io::srgb_to_linear;
+
 /// How code values map to linear light, `0..=1`.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Response {
@@ -44,15 +46,6 @@ impl Response {
             };
         }
         lut
-    }
-}
-
-/// The sRGB decoding function on `0..=1`.
-pub fn srgb_to_linear(x: f32) -> f32 {
-    if x <= 0.04045 {
-        x / 12.92
-    } else {
-        ((x + 0.055) / 1.055).powf(2.4)
     }
 }
 
