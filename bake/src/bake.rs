@@ -12,7 +12,7 @@ use crate::fuse::{fuse, FuseOptions};
 use crate::maps::BakeInput;
 use crate::pushpull::push_pull;
 use crate::textures::BakedTextures;
-use crate::views::View;
+use crate::views::PositionView;
 use matscan_scan::bundle::TruthMap;
 use matscan_scan::bvh::RayCaster;
 use matscan_scan::estimate_maps::{read_position_maps, ParamMap, PositionMaps};
@@ -84,7 +84,7 @@ pub fn bake_maps(
     let manifest_path = bundle.manifest_path();
     let views = positions
         .iter()
-        .map(|p| View::prepare(&bundle.manifest, &manifest_path, &caster, p, &slots))
+        .map(|p| PositionView::prepare(&bundle.manifest, &manifest_path, &caster, p, &slots))
         .collect::<Result<Vec<_>, _>>()?;
     let size = options.size;
     let atlas = Atlas::rasterize(&caster.mesh, &uvs, size, size, options.gutter);

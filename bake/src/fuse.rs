@@ -24,7 +24,7 @@
 
 use crate::atlas::Atlas;
 use crate::sampling::Taps;
-use crate::views::View;
+use crate::views::PositionView;
 use glam::Vec2;
 use matscan_scan::bvh::RayCaster;
 use rayon::prelude::*;
@@ -64,7 +64,7 @@ pub(crate) fn fuse(
     atlas: &Atlas,
     caster: &RayCaster,
     uvs: &[Vec2],
-    views: &[View],
+    views: &[PositionView],
     channels: &[usize],
     options: &FuseOptions,
 ) -> Fused {

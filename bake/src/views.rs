@@ -26,7 +26,7 @@ pub(crate) struct ViewMap {
 }
 
 #[derive(Debug, Clone)]
-pub(crate) struct View {
+pub(crate) struct PositionView {
     pub camera: PinholeCamera,
     pub center: Vec3,
     pub width: usize,
@@ -41,7 +41,7 @@ pub(crate) struct View {
     pub maps: Vec<Option<ViewMap>>,
 }
 
-impl View {
+impl PositionView {
     /// Prepares `input` for parameter slots `slots`; `manifest_path` names
     /// the manifest in errors.
     pub fn prepare(
@@ -50,7 +50,7 @@ impl View {
         caster: &RayCaster,
         input: &BakeInput,
         slots: &[Param],
-    ) -> Result<View, BakeError> {
+    ) -> Result<PositionView, BakeError> {
         let position = manifest
             .positions
             .iter()
@@ -138,7 +138,7 @@ impl View {
             maps[slot] = Some(ViewMap { values, confidence });
         }
         let silhouette = distance_to_background(&valid, width, height);
-        Ok(View {
+        Ok(PositionView {
             center: camera.center().as_vec3(),
             camera,
             width,

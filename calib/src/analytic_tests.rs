@@ -592,7 +592,7 @@ fn cos_vl_map_uses_the_documented_pole_value() {
 }
 
 /// The shadow scene (a sphere before a plane, one light) at scale `s`.
-fn scaled_maps(s: f32) -> crate::maps::PositionMaps {
+fn scaled_maps(s: f32) -> crate::maps::PixelMaps {
     let mesh = merge(&[
         icosphere(Vec3::ZERO, 0.4 * s, 3),
         quad(

@@ -10,7 +10,7 @@
 
 use crate::bad_light::{bad_light, BadLight, BadLightOptions};
 use crate::error::CalibError;
-use crate::maps::{position_maps, PositionMaps};
+use crate::maps::{position_maps, PixelMaps};
 use crate::photos::PhotoSource;
 use crate::warp::{correspondence, Correspondence, WarpOptions};
 use crate::white_reference::{white_reference, WhiteReference, WhiteReferenceOptions};
@@ -27,7 +27,7 @@ pub struct CalibOptions {
 /// Everything calibration knows about one position.
 #[derive(Debug)]
 pub struct PositionCalibration {
-    pub maps: PositionMaps,
+    pub maps: PixelMaps,
     /// The white reference's response per lit capture, or why there is none.
     pub light_response: Result<WhiteReference, CalibError>,
     pub bad_light: BadLight,
@@ -66,8 +66,8 @@ pub fn geometry_maps(
     manifest: &Manifest,
     caster: &RayCaster,
     options: &WarpOptions,
-) -> (Vec<PositionMaps>, Vec<Correspondence>) {
-    let maps: Vec<PositionMaps> = manifest
+) -> (Vec<PixelMaps>, Vec<Correspondence>) {
+    let maps: Vec<PixelMaps> = manifest
         .positions
         .iter()
         .map(|p| position_maps(caster, &manifest.camera, p))
@@ -79,7 +79,7 @@ pub fn geometry_maps(
 /// Correspondences for every ordered pair of distinct positions: n (n - 1)
 /// maps of 9 bytes per pixel, cheap for the handful of positions a scan
 /// has (use [`correspondence`] directly for a chosen pair on huge scans).
-pub fn correspondences(maps: &[PositionMaps], options: &WarpOptions) -> Vec<Correspondence> {
+pub fn correspondences(maps: &[PixelMaps], options: &WarpOptions) -> Vec<Correspondence> {
     let mut out = Vec::new();
     for (i, reference) in maps.iter().enumerate() {
         for (j, other) in maps.iter().enumerate() {

@@ -55,7 +55,7 @@ pub use calibrate::{
     calibrate, calibrate_bundle, CalibOptions, PositionCalibration, ScanCalibration,
 };
 pub use error::CalibError;
-pub use maps::{position_maps, PositionMaps};
+pub use maps::{position_maps, PixelMaps};
 pub use photos::{MemoryScan, PhotoSource};
 pub use write::write_maps;
 

@@ -10,7 +10,7 @@ use matscan_scan::{Intrinsics, PinholeCamera, Position};
 
 /// The maps of one position.
 #[derive(Debug, Clone, PartialEq)]
-pub struct PositionMaps {
+pub struct PixelMaps {
     /// The position's name in the manifest.
     pub position: String,
     pub camera: PinholeCamera,
@@ -21,7 +21,7 @@ pub struct PositionMaps {
     pub projectors: Vec<ProjectorMaps>,
 }
 
-impl PositionMaps {
+impl PixelMaps {
     pub fn light(&self, name: &str) -> Option<&LightMaps> {
         self.lights.iter().find(|l| l.light == name)
     }
@@ -36,7 +36,7 @@ pub fn position_maps(
     caster: &RayCaster,
     intrinsics: &Intrinsics,
     position: &Position,
-) -> PositionMaps {
+) -> PixelMaps {
     let camera = PinholeCamera::new(*intrinsics, position.camera_to_world);
     let geometry = position_geometry(caster, &camera);
     let lights: Vec<LightMaps> = position
@@ -57,7 +57,7 @@ pub fn position_maps(
         .iter()
         .filter_map(|m| projector_maps(position, m, &geometry.position))
         .collect();
-    PositionMaps {
+    PixelMaps {
         position: position.name.clone(),
         camera,
         geometry,

@@ -16,7 +16,7 @@
 
 use crate::error::CalibError;
 use crate::geometry::to_f64;
-use crate::maps::PositionMaps;
+use crate::maps::PixelMaps;
 use crate::par::par_raster;
 use matscan_scan::raster::{MaskRaster, RgbRaster, ScalarRaster};
 use matscan_scan::Raster;
@@ -118,8 +118,8 @@ impl Tap {
 
 /// Where the reference position's object pixels appear in `other`.
 pub fn correspondence(
-    reference: &PositionMaps,
-    other: &PositionMaps,
+    reference: &PixelMaps,
+    other: &PixelMaps,
     options: &WarpOptions,
 ) -> Correspondence {
     let g = &reference.geometry;

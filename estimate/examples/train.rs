@@ -4,7 +4,7 @@
 //! [--crop PX] [--max-views N] [--max-minutes M] [--seed S]`.
 //!
 //! Progress goes to stderr as plain lines (this is what runs under `nohup`);
-//! the `matscan train` command (daemon's `train_cmd`) shows a progress bar.
+//! the `matscan train` command (`cli`, feature `train`) shows a progress bar.
 
 use matscan_estimate::cpu_device;
 use matscan_estimate::device::backend::training_device;

@@ -28,7 +28,7 @@
 //! [`ENV_STRENGTH`] (mean radiance 0.5). Exposure is 1; no backlight panel,
 //! no projector.
 //!
-//! Views ([`View`]): the reference camera itself (`ref`), or `orbit-KK`, N
+//! Views ([`CameraPose`]): the reference camera itself (`ref`), or `orbit-KK`, N
 //! cameras on the circle about the axis through `c` along the reference
 //! camera's up, at the reference camera's distance and elevation, looking at
 //! `c`; `orbit-00` sits where the reference camera is.
@@ -38,7 +38,7 @@
 //! and subsurface (the scan format's convention), and the BSDF applies the
 //! metallic > transmission > subsurface precedence itself, so they are
 //! turned back into authored values (`t / (1 - m)`, `s / ((1 - m)(1 - t))`)
-//! before rendering. Missing textures take [`DEFAULTS`]. The subsurface
+//! before rendering. Missing textures take each parameter's default (`Param::default_value`). The subsurface
 //! radius is the renderer's default (1, 1, 1) in scene units: the scan
 //! format carries no radius, so estimated and true renders share it.
 //!
@@ -72,25 +72,7 @@ pub const ENV_STRENGTH: f32 = 0.5;
 pub const RENDER_SEED: u64 = 0x5eed;
 /// Distance of the fixed lights from the box centre, in half diagonals.
 const LIGHT_DISTANCE: f64 = 3.0;
-/// Values of parameters without a texture: a mid-grey dielectric.
-pub const DEFAULTS: Defaults = Defaults {
-    basecolor: [0.5; 3],
-    roughness: 0.5,
-    metallic: 0.0,
-    transmission: 0.0,
-    subsurface: 0.0,
-};
 const LIGHT: &str = "key";
-
-/// Parameter values used where a texture set lacks a parameter.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Defaults {
-    pub basecolor: [f32; 3],
-    pub roughness: f32,
-    pub metallic: f32,
-    pub transmission: f32,
-    pub subsurface: f32,
-}
 
 /// What can go wrong re-rendering.
 #[derive(Debug, thiserror::Error)]
@@ -203,7 +185,7 @@ impl FromStr for Lighting {
 
 /// A camera pose to render from.
 #[derive(Debug, Clone, PartialEq)]
-pub struct View {
+pub struct CameraPose {
     /// `ref` or `orbit-KK`: part of the image file names.
     pub name: String,
     /// OpenCV frame, as the scan format's positions.
@@ -213,7 +195,7 @@ pub struct View {
 /// One image to render: a view under a lighting.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Shot {
-    pub view: View,
+    pub view: CameraPose,
     pub lighting: Lighting,
 }
 
@@ -266,8 +248,8 @@ impl Framing {
     }
 
     /// The reference camera as a view.
-    pub fn reference_view(&self) -> View {
-        View {
+    pub fn reference_view(&self) -> CameraPose {
+        CameraPose {
             name: "ref".into(),
             camera_to_world: self.reference,
         }
@@ -276,7 +258,7 @@ impl Framing {
     /// `n` cameras on the circle about the axis through the centre along
     /// the reference camera's up, the first where the reference camera is,
     /// each looking at the centre.
-    pub fn orbit(&self, n: usize) -> Vec<View> {
+    pub fn orbit(&self, n: usize) -> Vec<CameraPose> {
         let (_, up, _) = self.axes();
         let eye = self.reference.w_axis.truncate();
         let offset = eye - self.centre;
@@ -284,7 +266,7 @@ impl Framing {
             .map(|k| {
                 let angle = std::f64::consts::TAU * k as f64 / n as f64;
                 let e = self.centre + DQuat::from_axis_angle(up, angle) * offset;
-                View {
+                CameraPose {
                     name: format!("orbit-{k:02}"),
                     camera_to_world: look_at_safe(e, self.centre, up),
                 }
@@ -293,7 +275,7 @@ impl Framing {
     }
 
     /// Where `light` is for a camera at `view` (`None`: no point light).
-    pub fn light_position(&self, light: LightName, view: &View) -> Option<DVec3> {
+    pub fn light_position(&self, light: LightName, view: &CameraPose) -> Option<DVec3> {
         if light == LightName::Camera {
             let eye = view.camera_to_world.w_axis.truncate();
             let up = -DMat3::from_mat4(view.camera_to_world)
@@ -547,9 +529,9 @@ pub fn material_from_textures(textures: &BakedTextures) -> MaterialField {
             .map(|r| r.data.iter().map(|v| clean(*v)).collect())
             .unwrap_or_else(|| vec![default; w as usize * h as usize])
     };
-    let metallic = scalar(Param::Metallic, DEFAULTS.metallic);
-    let eff_t = scalar(Param::Transmission, DEFAULTS.transmission);
-    let eff_s = scalar(Param::Subsurface, DEFAULTS.subsurface);
+    let metallic = scalar(Param::Metallic, Param::Metallic.default_value());
+    let eff_t = scalar(Param::Transmission, Param::Transmission.default_value());
+    let eff_s = scalar(Param::Subsurface, Param::Subsurface.default_value());
     let transmission: Vec<f32> = eff_t
         .iter()
         .zip(&metallic)
@@ -570,9 +552,9 @@ pub fn material_from_textures(textures: &BakedTextures) -> MaterialField {
     MaterialField {
         basecolor: match textures.basecolor() {
             Some(r) => Texture::Map(r.map(|p| p.map(clean))),
-            None => Texture::Constant(DEFAULTS.basecolor),
+            None => Texture::Constant([Param::Basecolor.default_value(); 3]),
         },
-        roughness: map(scalar(Param::Roughness, DEFAULTS.roughness)),
+        roughness: map(scalar(Param::Roughness, Param::Roughness.default_value())),
         metallic: map(metallic),
         transmission: map(transmission),
         subsurface: map(subsurface),
@@ -798,8 +780,11 @@ mod tests {
         let Texture::Map(rough) = &field.roughness else {
             panic!("roughness is a map")
         };
-        assert_eq!(rough.data, vec![DEFAULTS.roughness; 2]);
-        assert_eq!(field.basecolor, Texture::Constant(DEFAULTS.basecolor));
+        assert_eq!(rough.data, vec![Param::Roughness.default_value(); 2]);
+        assert_eq!(
+            field.basecolor,
+            Texture::Constant([Param::Basecolor.default_value(); 3])
+        );
         let m = matscan_bsdf::material::Material {
             basecolor: Vec3::ONE,
             roughness: 0.5,

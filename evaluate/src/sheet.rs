@@ -10,7 +10,7 @@
 
 use crate::plot::font;
 use anyhow::{Context, Result};
-use matscan_calib::{calibrate_bundle, CalibOptions, PositionMaps};
+use matscan_calib::{calibrate_bundle, CalibOptions, PixelMaps};
 use matscan_scan::bundle::TruthImage;
 use matscan_scan::raster::{MaskRaster, Raster, RgbRaster, ScalarRaster};
 use matscan_scan::{Bundle, Param, TruthMap};
@@ -115,7 +115,7 @@ pub fn draw_contact_sheet(scan: &Path, out: &Path) -> Result<()> {
 
 /// Normal and view as colours (`0.5 + 0.5 v`), depth normalized over the
 /// object, cosines as grey (negative as black), shadows per light.
-fn calib_tiles(maps: &PositionMaps) -> Vec<Tile> {
+fn calib_tiles(maps: &PixelMaps) -> Vec<Tile> {
     let g = &maps.geometry;
     let as_colour = |r: &RgbRaster| {
         let data = r

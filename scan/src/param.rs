@@ -33,6 +33,17 @@ impl Param {
         }
     }
 
+    /// The value the parameter takes where nothing measured or gave it:
+    /// no metal, no transmission, no subsurface, medium roughness, mid
+    /// grey (every channel of basecolor). A skipped parameter feeds this to
+    /// the networks that read it, and a texture set without it renders so.
+    pub fn default_value(self) -> f32 {
+        match self {
+            Param::Metallic | Param::Transmission | Param::Subsurface => 0.0,
+            Param::Roughness | Param::Basecolor => 0.5,
+        }
+    }
+
     /// Number of channels of the parameter's map (3 for basecolor, else 1).
     pub fn channels(self) -> usize {
         match self {

@@ -6,7 +6,7 @@
 
 use glam::{DVec3, Vec3};
 use matscan_calib::synthetic::{icosphere, intrinsics, merge, point_light, quad};
-use matscan_calib::{position_maps, PositionMaps};
+use matscan_calib::{position_maps, PixelMaps};
 use matscan_scan::bvh::RayCaster;
 use matscan_scan::camera::look_at;
 use matscan_scan::{Mesh, Position};
@@ -63,12 +63,12 @@ fn scene(s: f64, dir: DVec3, light: DVec3) -> (RayCaster, Position) {
     (caster, position(c2w, lights))
 }
 
-fn maps(caster: &RayCaster, pos: &Position) -> PositionMaps {
+fn maps(caster: &RayCaster, pos: &Position) -> PixelMaps {
     position_maps(caster, &intrinsics(SIZE, 60.0), pos)
 }
 
 /// Every value finite; cosines in [-1, 1]; unit vectors unit or zero.
-fn assert_sane(m: &PositionMaps) -> Result<(), TestCaseError> {
+fn assert_sane(m: &PixelMaps) -> Result<(), TestCaseError> {
     let g = &m.geometry;
     for r in [&g.position, &g.normal, &g.geometric_normal, &g.view] {
         prop_assert!(r.data.iter().flatten().all(|v| v.is_finite()));

@@ -97,7 +97,7 @@ pub fn run(args: &TrainArgs) -> Result<()> {
 
 #[cfg(feature = "train")]
 mod imp {
-    use super::TrainArgs;
+    use crate::cmd::train::TrainArgs;
     use anyhow::{bail, Context, Result};
     use indicatif::{ProgressBar, ProgressStyle};
     use matscan_estimate::device::backend::training_device;

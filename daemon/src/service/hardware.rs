@@ -13,7 +13,7 @@
 //! set of validated error messages, and that a calibrated scan's own
 //! `scan.toml` serves as the rig file. Captures in it are ignored.
 //!
-//! The mesh is re-read at every capture ([`Rig::reload_mesh`] with
+//! The mesh is re-read at every capture ([`RigDevices::reload_mesh`] with
 //! `mesh_source`), since the scanner software writes each new object's mesh
 //! to the same path before the operator presses the footswitch.
 //!
@@ -28,7 +28,7 @@
 //! Boundaries: opens devices and reads files; takes no photo.
 
 use super::config::{CameraSource, FootswitchSource, HardwareRigConfig, ProjectorSource};
-use super::sequencer::{PositionGeometry, Rig, RigGeometry};
+use super::sequencer::{PositionPose, RigDevices, RigGeometry};
 use matscan_drivers::footswitch::evdev::EvdevFootswitch;
 use matscan_drivers::lights::{open_lights, HostConfig};
 use matscan_drivers::{Camera, DriverError, Projector, Trigger};
@@ -118,7 +118,7 @@ pub fn load_geometry(config: &HardwareRigConfig) -> Result<RigGeometry, Hardware
         positions: manifest
             .positions
             .iter()
-            .map(|p| PositionGeometry {
+            .map(|p| PositionPose {
                 name: p.name.clone(),
                 camera_to_world: p.camera_to_world,
                 lights: p.lights.clone(),
@@ -147,7 +147,7 @@ pub struct Devices {
 
 /// Opens every device of the hardware rig; the geometry first, since a
 /// wrong file is the likeliest mistake and needs no device.
-pub fn open(config: &HardwareRigConfig) -> Result<Rig, HardwareError> {
+pub fn open(config: &HardwareRigConfig) -> Result<RigDevices, HardwareError> {
     let geometry = load_geometry(config)?;
     let camera = open_camera(&config.camera, config)?;
     let projector = match &config.projector {
@@ -171,7 +171,10 @@ pub fn open(config: &HardwareRigConfig) -> Result<Rig, HardwareError> {
 /// projector and footswitch; the geometry files and the light controller's
 /// serial port are the configured ones. The end-to-end test drives the
 /// real serial driver this way against a board on a pseudo-terminal.
-pub fn open_with(config: &HardwareRigConfig, devices: Devices) -> Result<Rig, HardwareError> {
+pub fn open_with(
+    config: &HardwareRigConfig,
+    devices: Devices,
+) -> Result<RigDevices, HardwareError> {
     let geometry = load_geometry(config)?;
     assemble(config, geometry, devices)
 }
@@ -180,9 +183,9 @@ fn assemble(
     config: &HardwareRigConfig,
     geometry: RigGeometry,
     devices: Devices,
-) -> Result<Rig, HardwareError> {
+) -> Result<RigDevices, HardwareError> {
     let lights = open_lights(&config.lights, config.baud, HostConfig::default())?;
-    Ok(Rig {
+    Ok(RigDevices {
         camera: devices.camera,
         lights: Box::new(lights),
         projector: devices.projector,
@@ -428,8 +431,8 @@ mod tests {
 
     /// A hardware rig's geometry and projector without any other device,
     /// to ask what it can capture.
-    fn device_less(geometry: RigGeometry, projector: Option<Box<dyn Projector>>) -> Rig {
-        Rig {
+    fn device_less(geometry: RigGeometry, projector: Option<Box<dyn Projector>>) -> RigDevices {
+        RigDevices {
             camera: Box::new(NoCamera),
             lights: Box::new(NoLights),
             projector,
@@ -602,7 +605,7 @@ mod tests {
         let config = rig_files(dir.path());
         let geometry = load_geometry(&config).unwrap();
         let first = geometry.mesh.triangle_count();
-        let mut rig = Rig {
+        let mut rig = RigDevices {
             mesh_source: Some(config.mesh.clone()),
             ..device_less(geometry, None)
         };

@@ -5,11 +5,11 @@
 //! becomes the scan's truth maps (so estimates of simulated scans report
 //! their error).
 //!
-//! Boundaries: builds a [`Rig`]; takes no photo.
+//! Boundaries: builds a [`RigDevices`]; takes no photo.
 
 use super::config::{RigChoice, SimulatedRigConfig};
 use super::hardware::HardwareError;
-use super::sequencer::{PositionGeometry, Rig, RigGeometry, TruthSource};
+use super::sequencer::{PositionPose, RigDevices, RigGeometry, TruthSource};
 use matscan_drivers::lights::BoardFaults;
 use matscan_drivers::sim_rig::{SimConfig, SimFaults, SimulatedRig};
 use matscan_drivers::DriverError;
@@ -19,14 +19,14 @@ use matscan_sim::scene::{generate, rig_to_manifest_lights, GeometrySource, Scene
 use std::num::NonZeroU32;
 
 /// Opens the rig `choice` names.
-pub fn open(choice: &RigChoice) -> Result<Rig, HardwareError> {
+pub fn open(choice: &RigChoice) -> Result<RigDevices, HardwareError> {
     match choice {
         RigChoice::Simulated(c) => Ok(open_simulated(c)?),
         RigChoice::Hardware(c) => super::hardware::open(c),
     }
 }
 
-fn open_simulated(c: &SimulatedRigConfig) -> Result<Rig, DriverError> {
+fn open_simulated(c: &SimulatedRigConfig) -> Result<RigDevices, DriverError> {
     let scene = generate(&SceneOptions {
         seed: c.seed,
         kind: c.kind,
@@ -76,7 +76,7 @@ fn open_simulated(c: &SimulatedRigConfig) -> Result<Rig, DriverError> {
         })),
         None => None,
     };
-    Ok(Rig {
+    Ok(RigDevices {
         camera: Box::new(rig.camera),
         lights: Box::new(rig.lights),
         projector: Some(Box::new(rig.projector)),
@@ -136,7 +136,7 @@ pub fn geometry_of(scene: &Scene, size: u32) -> RigGeometry {
             .rig
             .positions
             .iter()
-            .map(|p| PositionGeometry {
+            .map(|p| PositionPose {
                 name: p.name.clone(),
                 camera_to_world: p.camera_to_world,
                 lights: rig_to_manifest_lights(p),

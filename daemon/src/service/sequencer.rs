@@ -32,13 +32,13 @@ pub struct RigGeometry {
     pub name: String,
     pub mesh: Mesh,
     pub intrinsics: Intrinsics,
-    pub positions: Vec<PositionGeometry>,
+    pub positions: Vec<PositionPose>,
     /// Small and large checkerboard periods, projector pixels.
     pub checker_periods: (NonZeroU32, NonZeroU32),
 }
 
 #[derive(Debug, Clone)]
-pub struct PositionGeometry {
+pub struct PositionPose {
     pub name: String,
     pub camera_to_world: glam::DMat4,
     /// Every rig light in world space at this position (manifest form).
@@ -68,11 +68,11 @@ pub trait TruthSource {
 }
 
 /// The rig's devices and what is known about them.
-pub struct Rig {
+pub struct RigDevices {
     pub camera: Box<dyn Camera>,
     pub lights: Box<dyn LightController>,
     /// `None`: a rig without projector (the plan then takes no projector
-    /// photo, see [`Rig::capabilities`]).
+    /// photo, see [`RigDevices::capabilities`]).
     pub projector: Option<Box<dyn Projector>>,
     /// `None`: the operator moves the object and presses `trigger`.
     pub positioner: Option<Box<dyn Positioner>>,
@@ -171,7 +171,7 @@ pub fn drain_presses(trigger: &mut dyn Trigger) -> usize {
 /// The name of the side file recording the profile of a capture.
 pub const CAPTURE_INFO_FILE: &str = "capture.toml";
 
-impl Rig {
+impl RigDevices {
     /// Takes every photo of `plan` at every position and publishes the scan
     /// at `target` (which must not exist). `stop` is asked before each photo
     /// and every 200 ms while waiting for the operator (the daemon also
@@ -486,7 +486,7 @@ impl Rig {
     }
 
     /// The projector, or an error naming the plan's mistake: a plan made
-    /// for [`Rig::capabilities`] never asks a rig without one.
+    /// for [`RigDevices::capabilities`] never asks a rig without one.
     fn projector(&mut self) -> Result<&mut Box<dyn Projector>, DriverError> {
         self.projector
             .as_mut()
@@ -496,7 +496,7 @@ impl Rig {
             })
     }
 
-    /// Re-reads the object's mesh from [`Rig::mesh_source`], if any: the
+    /// Re-reads the object's mesh from [`RigDevices::mesh_source`], if any: the
     /// scanner software exports each new object there before the press.
     pub fn reload_mesh(&mut self) -> Result<(), ScanError> {
         if let Some(path) = &self.mesh_source {
@@ -618,7 +618,7 @@ mod tests;
 /// after moves it on.
 #[cfg(test)]
 pub(crate) fn capture_with_operator(
-    rig: &mut Rig,
+    rig: &mut RigDevices,
     plan: &CapturePlan,
     target: &Path,
     settings: &RunSettings,

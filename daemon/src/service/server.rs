@@ -10,7 +10,7 @@ use super::config::Config;
 use super::notify::Notifier;
 use super::plan::plan;
 use super::request::{request_capture, Source};
-use super::sequencer::{CaptureError, Progress, Rig, RunSettings};
+use super::sequencer::{CaptureError, Progress, RigDevices, RunSettings};
 use super::state::{JobStage, Shared};
 use super::worker::{EstimateOutcome, Job, Processed, Worker};
 use matscan_drivers::Press;
@@ -222,7 +222,7 @@ enum Next {
 
 /// The rig as the capture thread holds it between jobs.
 struct RigSlot {
-    rig: Option<Rig>,
+    rig: Option<RigDevices>,
     /// When opening it last failed (retried after [`REOPEN_EVERY`]).
     failed_at: Option<Instant>,
     /// The timestamp of the last press that counted.
@@ -411,7 +411,7 @@ fn finish_job(
 fn run_job(
     config: &Config,
     shared: &Shared,
-    rig: &mut Option<Rig>,
+    rig: &mut Option<RigDevices>,
     id: u64,
 ) -> Result<(PathBuf, serde_json::Value, usize), String> {
     let profile_name = shared

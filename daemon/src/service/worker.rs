@@ -12,7 +12,7 @@
 //! configuration turns it off, the worker estimates the BSDF maps into
 //! `<scan>/estimate` (`matscan_estimate::estimate`, as `matscan estimate`
 //! does). Parameters the capture profile gives are passed as the
-//! documented defaults (`matscan_estimate::pipeline::plan::default_value`: 0 for
+//! documented defaults (`matscan_scan::Param::default_value`: 0 for
 //! metallic, transmission and subsurface), so an "opaque" profile means
 //! what it says; parameters the captures cannot support are skipped by the
 //! estimator with the reason in `result.toml`.
@@ -23,7 +23,6 @@
 use super::config::EstimateSettings;
 use crossbeam_channel::{unbounded, Sender};
 use matscan_calib::check::{check, CheckOptions};
-use matscan_estimate::pipeline::plan::default_value;
 use matscan_estimate::pipeline::run::{estimate_prepared, PreparedScan};
 use matscan_estimate::{cpu_device, EstimateOptions, Given, ModelSource};
 use matscan_scan::Param;
@@ -238,7 +237,7 @@ pub fn estimate_scan(
         .given
         .iter()
         .copied()
-        .map(|k| (k, Given::Constant(default_value(k))))
+        .map(|k| (k, Given::Constant(k.default_value())))
         .collect();
     let options = EstimateOptions {
         given,

@@ -206,8 +206,8 @@ impl Board {
 
 #[cfg(test)]
 mod tests {
-    use super::super::wire::{request_line, BoardLine};
     use super::*;
+    use crate::lights::wire::{request_line, BoardLine};
 
     fn reply(board: &mut Board, seq: u16, cmd: Command, now: Instant) -> Option<BoardLine> {
         let out = board.on_line(request_line(seq, &cmd).trim_end(), now);

@@ -5,7 +5,7 @@
 //! Boundaries: descriptors, claiming and error wording only; no protocol.
 
 use crate::error::DriverError;
-use crate::usb::UsbId;
+use crate::usb::id::UsbId;
 use rusb::{Context, Device, DeviceHandle, Direction, TransferType, UsbContext};
 use std::io;
 

@@ -93,15 +93,6 @@ pub fn parse_given(text: &str) -> Result<(Param, Given), PlanError> {
     }
 }
 
-/// The value a skipped parameter feeds its dependents: no metal, no
-/// transmission, no subsurface, medium roughness, mid gray.
-pub fn default_value(kind: Param) -> f32 {
-    match kind {
-        Param::Metallic | Param::Transmission | Param::Subsurface => 0.0,
-        Param::Roughness | Param::Basecolor => 0.5,
-    }
-}
-
 /// The parameters whose values `kind`'s network reads (not counting
 /// illumination, which comes from the roughness network).
 pub fn feeds(kind: Param) -> &'static [Param] {
@@ -204,7 +195,7 @@ impl Plan {
                 }
             } else if let Some(reason) = missing(kind) {
                 Decision::Skip {
-                    reason: format!("{reason}; dependents use {}", default_value(kind)),
+                    reason: format!("{reason}; dependents use {}", kind.default_value()),
                 }
             } else {
                 Decision::Estimate

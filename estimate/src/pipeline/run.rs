@@ -32,7 +32,7 @@ use crate::pipeline::metrics::error_metrics;
 use crate::pipeline::output::{
     write_estimate, OutputError, ParamResult, ResultFile, Status, Timings, RESULT_FORMAT,
 };
-use crate::pipeline::plan::{default_value, Availability, Decision, Given, Plan, PlanError};
+use crate::pipeline::plan::{Availability, Decision, Given, Plan, PlanError};
 use crate::pipeline::views::{select_views, ViewError, ViewFilter};
 use crate::refine::{
     refine_scene, Hold, RefineError, RefineOptions, RefineSummary, Start, StopReason, NOT_FITTED,
@@ -333,7 +333,7 @@ pub fn estimate_prepared(
                 status: Status::Skipped,
                 reason: Some(reason.clone()),
                 source: None,
-                default: Some(default_value(kind)),
+                default: Some(kind.default_value()),
                 model: None,
                 views: None,
             },
@@ -382,7 +382,7 @@ fn run_networks(
     for kind in crate::net::spec::PIPELINE_ORDER {
         match plan.decision(kind) {
             Decision::Given(g) => set_given(&mut values, kind, g, inputs)?,
-            Decision::Skip { .. } => set_constant(&mut values, kind, default_value(kind), inputs),
+            Decision::Skip { .. } => set_constant(&mut values, kind, kind.default_value(), inputs),
             Decision::Estimate => {}
         }
     }

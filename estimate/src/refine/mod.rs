@@ -27,6 +27,7 @@
 //! networks' maps and writes what comes back.
 
 pub mod confidence;
+pub mod error;
 pub mod loss;
 pub mod model;
 pub mod observe;
@@ -37,9 +38,10 @@ pub use observe::IlluminationSource;
 pub use solver::{Settings, StopReason};
 
 use crate::pipeline::inputs::SceneInputs;
+pub use error::RefineError;
 use loss::Prior;
-use matscan_calib::{CalibError, ScanCalibration};
-use matscan_scan::{Bundle, ScanError};
+use matscan_calib::ScanCalibration;
+use matscan_scan::Bundle;
 use model::{Fixed, Observation, Params, N};
 use observe::{calibrated_lighting, clip_level, network_lighting, observations, ViewLighting};
 use rayon::prelude::*;
@@ -179,32 +181,6 @@ pub const NOT_FITTED: [(&str, &str); 2] = [
          network's value is kept",
     ),
 ];
-
-/// The refinement could not run.
-#[derive(Debug, thiserror::Error)]
-pub enum RefineError {
-    /// Reading the manifest failed.
-    #[error(transparent)]
-    Scan(#[from] ScanError),
-    /// Warping a light map failed.
-    #[error(transparent)]
-    Calib(#[from] CalibError),
-    /// Calibration has no light maps for a view.
-    #[error("refinement: calibration has no light maps for view {0}")]
-    MissingMaps(String),
-    /// A start map does not have one value per reference pixel.
-    #[error(
-        "refinement: the {what} map has {found} values, the reference image {expected} pixels"
-    )]
-    Size {
-        /// Which map.
-        what: &'static str,
-        /// Its length.
-        found: usize,
-        /// Pixels of the reference image.
-        expected: usize,
-    },
-}
 
 /// The networks' answer per reference pixel, each in [0, 1].
 #[derive(Clone, Copy, Debug)]

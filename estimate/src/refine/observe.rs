@@ -16,9 +16,9 @@
 //! a view the chosen source cannot light (no intensity in the manifest, a
 //! checkerboard pattern) falls back to the network, or is left out.
 
+use super::error::RefineError;
 use super::loss::{view_weight, ViewEvidence};
 use super::model::{directions, white_response, Observation};
-use super::RefineError;
 use crate::pipeline::inputs::{exposure_scale, SceneInputs, ViewPlanes};
 use matscan_calib::photos::luma;
 use matscan_calib::ScanCalibration;

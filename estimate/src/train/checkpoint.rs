@@ -16,7 +16,7 @@
 //!
 //! Out of scope: what is trained (see the module root).
 
-use super::TrainError;
+use super::error::TrainError;
 use crate::net::network::{NetConfig, ParamNet};
 use crate::net::weights;
 use burn::module::{Module, ModuleMapper, ModuleVisitor, Param, ParamId};

@@ -34,18 +34,19 @@
 
 pub mod checkpoint;
 pub mod data;
+pub mod error;
 pub mod loss;
 pub mod plot;
 
-use crate::net::network::{ConfigError, InputError, NetConfig, ParamNet};
-use crate::net::weights::{self, WeightSource, WeightsError};
+use crate::net::network::{ConfigError, NetConfig, ParamNet};
+use crate::net::weights::{self, WeightSource};
 use crate::pipeline::truth_fed::{self, SceneData, SceneError};
 use burn::optim::{AdamConfig, GradientsParams};
 use burn::tensor::Device;
 use data::Cut;
+pub use error::TrainError;
 use loss::Batch;
 use matscan_scan::Param;
-use matscan_scan::ScanError;
 use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
@@ -54,56 +55,6 @@ use std::time::Instant;
 
 /// The thesis's learning rate.
 pub const LEARNING_RATE: f64 = 1.0e-3;
-
-/// A training run that failed.
-#[derive(Debug, thiserror::Error)]
-pub enum TrainError {
-    /// A file or folder could not be read or written.
-    #[error("{}: {source}", path.display())]
-    Io {
-        /// The path.
-        path: PathBuf,
-        /// Why.
-        #[source]
-        source: std::io::Error,
-    },
-    /// A data folder could not be listed.
-    #[error(transparent)]
-    Scan(#[from] ScanError),
-    /// A scene could not be prepared (training needs simulated bundles
-    /// with ground truth).
-    #[error(transparent)]
-    Scene(#[from] SceneError),
-    /// No scene of the data folder is usable for this network.
-    #[error("{}: no usable scene for the {kind} network", dir.display())]
-    NoScenes {
-        /// The folder.
-        dir: PathBuf,
-        /// The network.
-        kind: Param,
-    },
-    /// Bad network width.
-    #[error(transparent)]
-    Config(#[from] ConfigError),
-    /// The network refused a sample.
-    #[error(transparent)]
-    Network(#[from] InputError),
-    /// Weights could not be written or read.
-    #[error(transparent)]
-    Weights(#[from] WeightsError),
-    /// A checkpoint is unusable.
-    #[error("checkpoint: {0}")]
-    Checkpoint(String),
-    /// The loss became non-finite too often.
-    #[error("the loss was not finite in {0} consecutive steps; lower the learning rate")]
-    Diverged(usize),
-    /// The backend failed to give data back.
-    #[error("backend: {0}")]
-    Backend(String),
-    /// The loss plot could not be encoded.
-    #[error("loss plot: {0}")]
-    Plot(String),
-}
 
 /// What to train and how.
 #[derive(Clone, Debug)]

@@ -10,7 +10,7 @@
 //! Out of scope: computing the losses (see `loss`).
 
 use super::checkpoint::write_atomic;
-use super::TrainError;
+use super::error::TrainError;
 use image::{ImageFormat, Rgb, RgbImage};
 use matscan_scan::draw::line;
 use std::io::Write;

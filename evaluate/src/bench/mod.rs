@@ -15,8 +15,8 @@
 //! - backend: the CPU backends built in (the others, and any GPU, are
 //!   listed as not built rather than left out).
 //!
-//! A new knob is one [`Knob`] variant, one arm in [`Plan::settings`] and,
-//! if it changes something `Config` does not hold yet, one field.
+//! A new knob is one [`Knob`] variant, one arm in [`Sweep::settings`] and,
+//! if it changes something `RowConfig` does not hold yet, one field.
 //!
 //! The evaluation set is rendered once into `--data DIR`
 //! (`DIR/<size>px/<kind>-<seed>`, kinds 2mat, multimat and 3mat in turn,
@@ -119,7 +119,7 @@ pub const DEFAULT_POSITIONS: usize = 3;
 pub const DEFAULT_SEED: u64 = 40_000;
 
 /// What `matscan bench` sweeps, and on which set. `None` fields take the
-/// defaults of [`Plan::from_options`] (smaller with `quick`).
+/// defaults of [`Sweep::from_options`] (smaller with `quick`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct BenchOptions {
     /// The evaluation set's folder: rendered where missing, reused where
@@ -185,7 +185,7 @@ impl BenchOptions {
 
 /// What one row runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Config {
+pub struct RowConfig {
     /// Image width and height.
     pub size: u32,
     /// Views per scan (0 = every view).
@@ -199,9 +199,9 @@ pub struct Config {
 
 /// The resolved sweep.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Plan {
+pub struct Sweep {
     pub scenes: usize,
-    pub base: Config,
+    pub base: RowConfig,
     pub sizes: Vec<u32>,
     pub views: Vec<usize>,
     pub width_percents: Vec<u32>,
@@ -209,9 +209,9 @@ pub struct Plan {
     pub knobs: Vec<Knob>,
 }
 
-impl Plan {
+impl Sweep {
     /// The sweep `args` ask for: `--quick` defaults, then explicit flags.
-    pub fn from_options(args: &BenchOptions) -> Result<Plan> {
+    pub fn from_options(args: &BenchOptions) -> Result<Sweep> {
         let quick = args.quick;
         let scenes = args.scenes.unwrap_or(if quick { 1 } else { 3 });
         let sizes = args.sizes.clone().unwrap_or_else(|| {
@@ -261,9 +261,9 @@ impl Plan {
                 }
             })
             .collect::<Result<Vec<u32>>>()?;
-        Ok(Plan {
+        Ok(Sweep {
             scenes,
-            base: Config {
+            base: RowConfig {
                 size: args.base_size,
                 views: 0,
                 width_percent: 100,
@@ -282,18 +282,18 @@ impl Plan {
     }
 
     /// The rows of `knob`: each a label and the base with that one change.
-    pub fn settings(&self, knob: Knob) -> Vec<(String, Config)> {
+    pub fn settings(&self, knob: Knob) -> Vec<(String, RowConfig)> {
         let base = self.base;
         match knob {
             Knob::Views => self
                 .views
                 .iter()
-                .map(|&views| (views_label(views), Config { views, ..base }))
+                .map(|&views| (views_label(views), RowConfig { views, ..base }))
                 .collect(),
             Knob::Resolution => self
                 .sizes
                 .iter()
-                .map(|&size| (format!("{size} px"), Config { size, ..base }))
+                .map(|&size| (format!("{size} px"), RowConfig { size, ..base }))
                 .collect(),
             Knob::Width => self
                 .width_percents
@@ -301,7 +301,7 @@ impl Plan {
                 .map(|&p| {
                     (
                         width_label(p),
-                        Config {
+                        RowConfig {
                             width_percent: p,
                             ..base
                         },
@@ -312,12 +312,12 @@ impl Plan {
                 .into_iter()
                 .map(Backend::Cpu)
                 .chain([Backend::Gpu])
-                .map(|backend| (backend.label(), Config { backend, ..base }))
+                .map(|backend| (backend.label(), RowConfig { backend, ..base }))
                 .collect(),
             Knob::Refine => self
                 .refine
                 .iter()
-                .map(|&refine| (refine_label(refine), Config { refine, ..base }))
+                .map(|&refine| (refine_label(refine), RowConfig { refine, ..base }))
                 .collect(),
         }
     }
@@ -492,7 +492,7 @@ fn scaled_models(percent: u32, device: &Device) -> Result<Models> {
 
 /// Runs one configuration over `scans`.
 fn run_config(
-    config: &Config,
+    config: &RowConfig,
     scans: &[PathBuf],
     weights: &Option<PathBuf>,
     views_cache: &mut BTreeMap<PathBuf, Option<Vec<String>>>,
@@ -583,7 +583,7 @@ fn run_config(
 pub struct Row {
     pub knob: Knob,
     pub setting: String,
-    pub config: Config,
+    pub config: RowConfig,
     pub outcome: Outcome,
 }
 
@@ -743,7 +743,7 @@ pub fn chart(rows: &[Row], title: &str) -> Chart {
 /// written).
 pub fn run(args: &BenchOptions, progress: &mut dyn FnMut(&str)) -> Result<String> {
     let started = Instant::now();
-    let plan = Plan::from_options(args)?;
+    let plan = Sweep::from_options(args)?;
     if args.weights.is_none() && EMBEDDED.is_empty() {
         bail!("this build embeds no trained weights; pass --weights DIR");
     }
@@ -767,7 +767,7 @@ pub fn run(args: &BenchOptions, progress: &mut dyn FnMut(&str)) -> Result<String
     let scratch = std::env::temp_dir().join(format!("matscan-bench-{}", std::process::id()));
     // Rows sharing a configuration (the base appears under every knob) are
     // measured once.
-    let mut done: Vec<(Config, Outcome)> = Vec::new();
+    let mut done: Vec<(RowConfig, Outcome)> = Vec::new();
     let mut views_cache = BTreeMap::new();
     let mut rows = Vec::new();
     for &knob in &plan.knobs {
@@ -833,8 +833,8 @@ pub fn run(args: &BenchOptions, progress: &mut dyn FnMut(&str)) -> Result<String
 mod tests {
     use super::*;
 
-    fn plan(options: BenchOptions) -> Plan {
-        Plan::from_options(&options).unwrap()
+    fn plan(options: BenchOptions) -> Sweep {
+        Sweep::from_options(&options).unwrap()
     }
 
     #[test]
@@ -940,7 +940,7 @@ mod tests {
             Row {
                 knob: Knob::Width,
                 setting: "x2".into(),
-                config: Config {
+                config: RowConfig {
                     width_percent: 200,
                     ..base
                 },
@@ -953,7 +953,7 @@ mod tests {
             Row {
                 knob: Knob::Backend,
                 setting: "gpu".into(),
-                config: Config {
+                config: RowConfig {
                     backend: Backend::Gpu,
                     ..base
                 },

@@ -2,9 +2,10 @@
 //! the estimates before it, the thesis's section 4.8), scored against the
 //! truth scan by scan.
 
+use super::options::EvalOptions;
+use super::report::Configuration;
 use super::tables::{scene_group, GroupBy, SceneResult};
 use super::truth::{truth_mask, truth_values};
-use super::{Configuration, EvalOptions};
 use crate::scans::view_filter;
 use anyhow::{Context, Result};
 use burn::tensor::Device;

@@ -14,9 +14,6 @@ pub fn views_label(count: usize) -> String {
     }
 }
 
-/// Header of the CSV `--csv` writes.
-pub const CSV_HEADER: &str = "table,views,group,scan,param,scans,mad,mse,psnr,baseline_mad,baseline_mse,baseline_psnr,thesis_mad,seconds,ssim";
-
 /// The `ALL` row per parameter beside the baseline and the thesis.
 pub(super) fn write_overall(table: &mut String, all: &GroupRow, thesis: &BTreeMap<Param, f64>) {
     let _ = writeln!(
@@ -194,4 +191,13 @@ pub(super) fn write_csv_rows(
             );
         }
     }
+}
+
+/// One view-count configuration's scene results, failures and texture
+/// scores.
+#[derive(Default)]
+pub(super) struct Configuration {
+    pub results: Vec<SceneResult>,
+    pub failures: Vec<String>,
+    pub textures: super::texture::TextureTable,
 }

@@ -11,13 +11,16 @@
 //! group `other`.
 //!
 //! Boundaries: arithmetic and naming only; running estimates and printing
-//! belong to `eval_cmd` and `bench_cmd`.
+//! belong to the evaluation (the module root) and `crate::bench`.
 
 use matscan_estimate::pipeline::metrics::ErrorMetrics;
 use matscan_scan::Param;
 use matscan_sim::scene::SceneKind;
 use std::collections::BTreeMap;
 use std::path::PathBuf;
+
+/// Header of the CSV `--csv` writes.
+pub const CSV_HEADER: &str = "table,views,group,scan,param,scans,mad,mse,psnr,baseline_mad,baseline_mse,baseline_psnr,thesis_mad,seconds,ssim";
 
 /// The name of the row over every scene.
 pub const ALL_GROUP: &str = "ALL";

@@ -67,7 +67,7 @@ pub struct TextureScore {
     pub params: BTreeMap<Param, ErrorMetrics>,
     /// Per shot of [`SHOTS`] (those with the object in view): estimated
     /// against true material, and the true material against itself with
-    /// other random numbers (the scale of sampling noise; see `render_cmd`).
+    /// other random numbers (the scale of sampling noise; see [`crate::render`]).
     pub renders: Vec<(String, Similarity, Similarity)>,
 }
 
@@ -285,7 +285,7 @@ impl TextureTable {
     }
 
     /// Appends this configuration's rows to `matscan eval`'s CSV (columns
-    /// of `eval_cmd::CSV_HEADER`, group `ALL`): `texture` rows per
+    /// of [`super::tables::CSV_HEADER`], group `ALL`): `texture` rows per
     /// parameter (MAD, MSE, PSNR over measured texels), `render` rows per
     /// image (MAD, MSE, PSNR and SSIM of the luminance), `render-noise`
     /// rows per image (PSNR and SSIM of the true material against itself
@@ -389,7 +389,7 @@ mod tests {
                 renders: vec![("ref-rim".into(), sim(ssim), sim(0.95))],
             });
         }
-        let mut csv = format!("{}\n", crate::eval::report::CSV_HEADER);
+        let mut csv = format!("{}\n", crate::eval::tables::CSV_HEADER);
         t.write_csv(&mut csv, 3);
         let lines: Vec<Vec<&str>> = csv.lines().map(|l| l.split(',').collect()).collect();
         let header = &lines[0];

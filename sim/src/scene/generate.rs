@@ -8,9 +8,9 @@
 
 use super::geometry::{generate_mesh, GeometryKind, GeometryOptions, UserMesh};
 use super::kinds::SceneKind;
+use super::model::{EnvSource, EnvSpec, Scene};
 use super::noise::hash64;
 use super::rig::{random_rig, RigOptions, ENV_STRENGTH};
-use super::{EnvSource, EnvSpec, Scene};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 
@@ -130,7 +130,7 @@ pub fn generate(options: &SceneOptions) -> Scene {
 mod tests {
     use super::*;
     use crate::scene::geometry::UvProjection;
-    use crate::scene::Texture;
+    use crate::scene::model::Texture;
     use glam::DVec3;
 
     fn small(seed: u64, kind: SceneKind, geometry: GeometrySource) -> SceneOptions {

@@ -27,8 +27,8 @@
 //! builds its own acceleration structure from the [`Mesh`].
 
 use super::maps::displacement_map;
+use super::model::{SceneError, Texture};
 use super::noise::{fbm3, hash64};
-use super::{SceneError, Texture};
 use glam::{Affine3A, DVec3, Mat3, Quat, Vec2, Vec3};
 use matscan_scan::Mesh;
 use rand::Rng;

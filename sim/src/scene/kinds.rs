@@ -37,8 +37,9 @@
 //! each then uniform in 0.2..1. The subsurface radius is the default (1, 1,
 //! 1) everywhere. Boundaries: materials only; maps come from `super::maps`.
 
+use super::color::hsv_to_rgb;
 use super::maps::{binary_map, color_map, masked_map, mixed_map};
-use super::{color::hsv_to_rgb, MaterialField, SceneError, Texture};
+use super::model::{MaterialField, SceneError, Texture};
 use glam::Vec3;
 use matscan_bsdf::material::{Material, DEFAULT_SUBSURFACE_RADIUS};
 use matscan_scan::Raster;

@@ -59,7 +59,7 @@
 //! renderer measures this, since only the renders show it.
 
 use super::color::hsv_to_rgb;
-use super::{Backlight, PointLight, Projector, Rig, RigPosition};
+use super::model::{Backlight, PointLight, Projector, Rig, RigPosition};
 use glam::{DMat3, DMat4, DQuat, DVec3, Vec3};
 use matscan_scan::camera::{look_at, Intrinsics, PinholeCamera};
 use matscan_scan::{Light, LightKind};

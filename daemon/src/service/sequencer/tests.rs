@@ -30,7 +30,11 @@ fn settings() -> RunSettings {
     }
 }
 
-fn run(rig: &mut Rig, profile: &Profile, target: &Path) -> Result<CaptureOutcome, CaptureError> {
+fn run(
+    rig: &mut RigDevices,
+    profile: &Profile,
+    target: &Path,
+) -> Result<CaptureOutcome, CaptureError> {
     let plan = plan(profile, rig.geometry.checker_periods, rig.capabilities());
     let mut seen = Vec::new();
     let out = rig.capture(
@@ -143,7 +147,7 @@ fn a_dead_flash_is_retried_then_fails_naming_it_and_publishes_nothing() {
 /// A two-position simulated rig without turntable: the rig, the turntable
 /// the "operator" turns by hand, and the footswitch's button.
 fn hand_turned_rig() -> (
-    Rig,
+    RigDevices,
     matscan_drivers::sim_rig::SimPositioner,
     FootswitchButton,
 ) {
@@ -171,7 +175,7 @@ fn hand_turned_rig() -> (
     )
     .unwrap();
     let button: FootswitchButton = sim_rig.footswitch.clone();
-    let rig = Rig {
+    let rig = RigDevices {
         camera: Box::new(sim_rig.camera),
         lights: Box::new(sim_rig.lights),
         projector: Some(Box::new(sim_rig.projector)),

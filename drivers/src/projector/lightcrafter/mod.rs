@@ -54,14 +54,11 @@
 //! [`LightCrafter`] talks through a [`HidTransport`] (64-byte reports in
 //! and out), so everything here is tested with a fake (that checks the
 //! exact bytes) in the default build; the libusb transport is `transport`
-//! (feature `hardware`): `RusbHid` and `LightCrafter::open`, over the HID
+//! (feature `hardware`): `transport::RusbHid` and `LightCrafter::open`, over the HID
 //! plumbing of `crate::usb`.
 
 #[cfg(feature = "hardware")]
 pub mod transport;
-
-#[cfg(feature = "hardware")]
-pub use transport::RusbHid;
 
 use crate::error::DriverError;
 use crate::traits::{Level, Projector, ProjectorPattern};

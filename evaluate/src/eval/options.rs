@@ -1,0 +1,68 @@
+//! What an evaluation measures and on what, and what it reports.
+
+use super::tables::GroupBy;
+use std::path::PathBuf;
+use std::str::FromStr;
+
+/// What `matscan eval` measures, and on what.
+#[derive(Clone, Debug)]
+pub struct EvalOptions {
+    /// Scan folders, or folders of them (see [`collect_scans`]).
+    pub data: Vec<PathBuf>,
+    /// Folder with `<param>.weights` per network; `None`: the embedded ones.
+    pub weights: Option<PathBuf>,
+    /// View counts to compare; 0 = every view.
+    pub views: Vec<usize>,
+    /// A set whose mean truth per parameter is the trivial baseline
+    /// (`None`: the evaluated set's own mean).
+    pub baseline_from: Option<PathBuf>,
+    /// Evaluate at most this many scans (in name order).
+    pub limit: Option<usize>,
+    /// Rows of the per-group tables.
+    pub group_by: GroupBy,
+    /// Also tabulate each scene's run time beside its errors.
+    pub per_scene: bool,
+    /// Where each network's dependencies come from.
+    pub dependencies: DependencySource,
+    /// Also bake estimate and truth into UV textures of this many texels
+    /// and score them in texture space and re-rendered.
+    pub textures: Option<u32>,
+}
+
+/// The printed tables and the CSV of one evaluation.
+#[derive(Clone, Debug, PartialEq)]
+pub struct EvalReport {
+    pub table: String,
+    pub csv: String,
+}
+
+/// What the networks that read other parameters are fed.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum DependencySource {
+    /// The other networks' estimates: the product's chained path (what
+    /// `matscan estimate` does; the thesis's section 4.8).
+    #[default]
+    Estimated,
+    /// The truth: each network on its own, as the thesis measured its
+    /// Tables 4.1 to 4.3 (section 4.5); run time is the networks' alone.
+    Truth,
+}
+
+impl DependencySource {
+    /// The names `--dependencies` takes.
+    pub const NAMES: &'static str = "estimated or truth";
+}
+
+impl FromStr for DependencySource {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "estimated" => Ok(DependencySource::Estimated),
+            "truth" => Ok(DependencySource::Truth),
+            other => Err(format!(
+                "unknown dependency source `{other}`: expected {}",
+                Self::NAMES
+            )),
+        }
+    }
+}
