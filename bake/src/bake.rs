@@ -149,14 +149,22 @@ pub fn bake_scan(
     estimate_dir: &Path,
     options: &BakeOptions,
 ) -> Result<BakedTextures, BakeError> {
-    let bundle = Bundle::open(scan_dir)?;
+    bake_bundle(&Bundle::open(scan_dir)?, estimate_dir, options)
+}
+
+/// [`bake_scan`] of a bundle already open.
+pub fn bake_bundle(
+    bundle: &Bundle,
+    estimate_dir: &Path,
+    options: &BakeOptions,
+) -> Result<BakedTextures, BakeError> {
     if !estimate_dir.is_dir() {
         return Err(BakeError::NothingToBake {
             path: estimate_dir.to_path_buf(),
             message: "no estimate folder; run `matscan estimate` on the scan first".into(),
         });
     }
-    let positions = read_estimate_maps(&bundle, estimate_dir)?;
+    let positions = read_estimate_maps(bundle, estimate_dir)?;
     if positions.is_empty() {
         return Err(BakeError::NothingToBake {
             path: estimate_dir.to_path_buf(),
@@ -165,7 +173,7 @@ pub fn bake_scan(
                 .into(),
         });
     }
-    bake_maps(&bundle, &positions, options)
+    bake_maps(bundle, &positions, options)
 }
 
 /// Reads every position's estimate maps from `estimate_dir`.

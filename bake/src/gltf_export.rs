@@ -63,6 +63,21 @@ pub enum GltfFormat {
     Binary,
 }
 
+/// Metres per unit of the manifest's `units` (glTF is in metres); an
+/// unknown unit is taken as metres, with a warning.
+pub fn metres_per_unit(units: &str) -> f32 {
+    match units {
+        "mm" => 0.001,
+        "cm" => 0.01,
+        "dm" => 0.1,
+        "m" => 1.0,
+        other => {
+            tracing::warn!("unknown units `{other}` in scan.toml; exporting as metres");
+            1.0
+        }
+    }
+}
+
 /// Writes the textures (`texture/`, the baker's layout plus the two packed
 /// glTF textures), the glTF file(s) and `principled.md` into `out_dir`;
 /// returns the main file (`material.gltf` or `material.glb`).

@@ -31,12 +31,12 @@ pub mod textures;
 mod views;
 
 pub use bake::{
-    bake_maps, bake_scan, bake_truth, read_estimate_maps, read_truth_maps, BakeOptions,
-    DEFAULT_SIZE,
+    bake_bundle, bake_maps, bake_scan, bake_truth, read_estimate_maps, read_truth_maps,
+    BakeOptions, DEFAULT_SIZE,
 };
 pub use error::BakeError;
 pub use fuse::FuseOptions;
-pub use gltf_export::{export_gltf, GltfFormat};
+pub use gltf_export::{export_gltf, metres_per_unit, GltfFormat};
 pub use maps::BakeInput;
 pub use textures::{
     read_textures, texel_uv, texture_dir, texture_path, write_textures, BakedTextures,

@@ -22,6 +22,7 @@ pub mod atomic;
 pub mod bundle;
 pub mod bvh;
 pub mod camera;
+pub mod capture_list;
 pub mod draw;
 pub mod error;
 pub mod estimate_maps;

@@ -10,7 +10,9 @@
 
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use matscan_bake::{bake_scan, export_gltf, BakeOptions, GltfFormat, DEFAULT_SIZE};
+use matscan_bake::{
+    bake_bundle, export_gltf, metres_per_unit, BakeOptions, GltfFormat, DEFAULT_SIZE,
+};
 use matscan_scan::Bundle;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -50,7 +52,7 @@ pub fn run(args: &ExportArgs) -> Result<()> {
         size: args.size,
         ..BakeOptions::default()
     };
-    let textures = bake_scan(&args.scan, &estimate, &options)
+    let textures = bake_bundle(&bundle, &estimate, &options)
         .with_context(|| format!("baking {}", estimate.display()))?;
     let baked_s = started.elapsed().as_secs_f64();
     let out = args.out.clone().unwrap_or(estimate);
@@ -80,18 +82,4 @@ pub fn run(args: &ExportArgs) -> Result<()> {
     );
     println!("wrote {}", path.display());
     Ok(())
-}
-
-/// glTF is in metres; the manifest says what a unit is.
-fn metres_per_unit(units: &str) -> f32 {
-    match units {
-        "mm" => 0.001,
-        "cm" => 0.01,
-        "dm" => 0.1,
-        "m" => 1.0,
-        other => {
-            tracing::warn!("unknown units `{other}` in scan.toml; exporting as metres");
-            1.0
-        }
-    }
 }

@@ -1,9 +1,18 @@
 //! systemd notification (`Type=notify`): `READY=1`, `STATUS=...`,
 //! `WATCHDOG=1` and `STOPPING=1` as datagrams to `$NOTIFY_SOCKET`, written
 //! with std's `UnixDatagram` (the protocol is one datagram of
-//! newline-separated assignments; no crate needed). `$WATCHDOG_USEC` (when
-//! `$WATCHDOG_PID` is absent or ours) gives the watchdog period; we ping at
-//! half of it, as sd_watchdog_enabled(3) advises.
+//! newline-separated assignments). `$WATCHDOG_USEC` (when `$WATCHDOG_PID`
+//! is absent or ours) gives the watchdog period; we ping at half of it, as
+//! sd_watchdog_enabled(3) advises.
+//!
+//! Why not the `sd-notify` crate: it reads the socket from the process
+//! environment on every call and has no way to be handed one. The daemon
+//! also runs embedded in other processes (`matscan demo`, the end-to-end
+//! tests, several daemons at once in one test binary), each with its own
+//! [`Notifier`] or none; with `sd-notify` those would share one
+//! process-wide variable, which tests could only change with racy
+//! `set_var` calls. The hand-written sender is these few lines, with an
+//! explicit target and abstract-namespace support, and is tested here.
 //!
 //! Boundaries: outside systemd (no `$NOTIFY_SOCKET`) every call is a no-op.
 

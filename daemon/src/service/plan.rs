@@ -11,7 +11,7 @@
 
 use super::config::Profile;
 use matscan_drivers::{Checker, Level, LightId};
-use matscan_scan::Param;
+use matscan_scan::capture_list::{position_captures, CaptureKind, UNIFORM_LEVEL};
 use std::num::NonZeroU32;
 
 /// What the rig does for one photo (on top of the ambient scene).
@@ -83,71 +83,87 @@ pub fn checker_of(period: NonZeroU32) -> Checker {
 
 /// The plan for `profile` on a rig with `rig`; `checker_periods` are the
 /// small and large checkerboard periods in projector pixels (even, at
-/// least 2).
+/// least 2). The photos are the contract's (`matscan_scan::capture_list`),
+/// less those the rig cannot take or nobody needs.
 pub fn plan(
     profile: &Profile,
     checker_periods: (NonZeroU32, NonZeroU32),
     rig: Capabilities,
 ) -> CapturePlan {
-    let mut captures = vec![PlannedCapture {
-        name: "ambient".into(),
-        step: Step::Ambient,
-    }];
-    for light in [LightId::Flash0, LightId::Flash1] {
-        captures.push(PlannedCapture {
-            name: light.name().into(),
-            step: Step::Flash(light),
-        });
-    }
-    let mut left_out = Vec::new();
-    if rig.projector {
-        captures.push(PlannedCapture {
-            name: "projector".into(),
-            step: Step::ProjectorUniform(Level::new(0.5).unwrap_or(Level::FULL)),
-        });
-    } else {
-        left_out.push("projector: this rig has no projector".to_string());
-    }
-    if profile.given.contains(&Param::Transmission) {
-        left_out.push("backlight: transmission is given".to_string());
-    } else if !rig.backlight {
-        left_out.push(
-            "backlight: this rig has no backlight panel (transmission cannot be estimated)"
-                .to_string(),
-        );
-    } else {
-        captures.push(PlannedCapture {
-            name: "backlight".into(),
-            step: Step::Backlit,
-        });
-    }
-    if profile.given.contains(&Param::Subsurface) {
-        left_out.push("checkerboards: subsurface is given".to_string());
-    } else if !rig.projector {
-        left_out.push(
-            "checkerboards: this rig has no projector (subsurface cannot be estimated)".to_string(),
-        );
-    } else if !rig.checkers {
-        left_out.push(
-            "checkerboards: the projector cannot show them exactly (subsurface cannot be \
-             estimated; drive it over DRM/KMS to show checkers)"
-                .to_string(),
-        );
-    } else {
-        let (small, large) = checker_periods;
-        for period in [small, large] {
-            captures.push(PlannedCapture {
-                name: format!("checker_{period}"),
-                step: Step::Checker(checker_of(period)),
-            });
+    let (small, large) = checker_periods;
+    let mut captures = Vec::new();
+    let mut left_out: Vec<String> = Vec::new();
+    for kind in position_captures(FLASHES.len(), (small.get(), large.get())) {
+        match left_out_reason(kind, profile, rig) {
+            Some(reason) => {
+                if !left_out.contains(&reason) {
+                    left_out.push(reason);
+                }
+            }
+            None => captures.push(PlannedCapture {
+                name: kind.name(),
+                step: step_of(kind),
+            }),
         }
     }
     CapturePlan { captures, left_out }
 }
 
+/// The flashes of every rig, in capture order.
+const FLASHES: [LightId; 2] = [LightId::Flash0, LightId::Flash1];
+
+/// What the rig does for a photo of `kind`.
+fn step_of(kind: CaptureKind) -> Step {
+    match kind {
+        CaptureKind::Ambient => Step::Ambient,
+        CaptureKind::Flash(i) => Step::Flash(FLASHES[i.min(FLASHES.len() - 1)]),
+        CaptureKind::Uniform => {
+            Step::ProjectorUniform(Level::new(UNIFORM_LEVEL).unwrap_or(Level::FULL))
+        }
+        CaptureKind::Backlit => Step::Backlit,
+        CaptureKind::Checker { period_px } => Step::Checker(checker_of(
+            NonZeroU32::new(period_px).unwrap_or(NonZeroU32::MIN),
+        )),
+    }
+}
+
+/// Why a photo of `kind` is not taken (one line per kind of photo), or
+/// `None` when it is.
+fn left_out_reason(kind: CaptureKind, profile: &Profile, rig: Capabilities) -> Option<String> {
+    let given = kind.only_for().filter(|p| profile.given.contains(p));
+    match kind {
+        CaptureKind::Ambient | CaptureKind::Flash(_) => None,
+        CaptureKind::Uniform => {
+            (!rig.projector).then(|| "projector: this rig has no projector".to_string())
+        }
+        CaptureKind::Backlit => match given {
+            Some(p) => Some(format!("backlight: {p} is given")),
+            None if !rig.backlight => Some(
+                "backlight: this rig has no backlight panel (transmission cannot be estimated)"
+                    .to_string(),
+            ),
+            None => None,
+        },
+        CaptureKind::Checker { .. } => match given {
+            Some(p) => Some(format!("checkerboards: {p} is given")),
+            None if !rig.projector => Some(
+                "checkerboards: this rig has no projector (subsurface cannot be estimated)"
+                    .to_string(),
+            ),
+            None if !rig.checkers => Some(
+                "checkerboards: the projector cannot show them exactly (subsurface cannot be \
+                 estimated; drive it over DRM/KMS to show checkers)"
+                    .to_string(),
+            ),
+            None => None,
+        },
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use matscan_scan::Param;
 
     fn periods() -> (NonZeroU32, NonZeroU32) {
         (NonZeroU32::new(8).unwrap(), NonZeroU32::new(32).unwrap())

@@ -32,6 +32,7 @@ use burn::tensor::{Device, Tensor, TensorData};
 use matscan_calib::photos::luma;
 use matscan_calib::white_reference::ycbcr;
 use matscan_calib::{CalibError, ScanCalibration};
+use matscan_scan::capture_list::NeededCapture;
 use matscan_scan::raster::{MaskRaster, RgbRaster, ScalarRaster};
 use matscan_scan::Param;
 use matscan_scan::{Bundle, ScanError};
@@ -121,6 +122,17 @@ pub struct ViewPlanes {
 }
 
 impl ViewPlanes {
+    /// Whether `kind`'s network fuses this view: every view, except that
+    /// the networks that need a backlit or checker capture
+    /// ([`Param::needs`]) take only the views whose position has one.
+    pub fn serves(&self, kind: Param) -> bool {
+        match kind.needs() {
+            Some(NeededCapture::Backlit) => self.has_backlit(),
+            Some(NeededCapture::Checker) => self.has_checker(),
+            None => true,
+        }
+    }
+
     /// Whether the view's position has a backlit capture.
     pub fn has_backlit(&self) -> bool {
         self.backlit.is_some()

@@ -6,7 +6,7 @@
 //! lacks the capture its network needs (no backlit capture, so no
 //! transmission; no checker capture, so no subsurface), or nothing
 //! requested needs it. A skipped parameter feeds its dependents
-//! [`default_value`].
+//! `Param::default_value`.
 //!
 //! What each network is fed ([`feeds`]): subsurface the effective
 //! transmission (eq. 3.5, so transmission and metallic); roughness metallic
@@ -19,6 +19,7 @@
 //!
 //! Out of scope: running the networks (see `pipeline`).
 
+use matscan_scan::capture_list::NeededCapture;
 use matscan_scan::Param;
 use std::collections::{BTreeMap, BTreeSet};
 use std::fmt;
@@ -121,7 +122,7 @@ pub enum Decision {
     Estimate,
     /// The user's value.
     Given(Given),
-    /// Not estimated; dependents get [`default_value`].
+    /// Not estimated; dependents get `Param::default_value`.
     Skip {
         /// Why, for the user.
         reason: String,
@@ -155,11 +156,11 @@ impl Plan {
             }
         }
         let missing = |kind: Param| -> Option<&'static str> {
-            match kind {
-                Param::Transmission if !available.backlit => {
+            match kind.needs() {
+                Some(NeededCapture::Backlit) if !available.backlit => {
                     Some("no backlit capture (lights = [\"backlight\"]) among the views' positions")
                 }
-                Param::Subsurface if !available.checker => {
+                Some(NeededCapture::Checker) if !available.checker => {
                     Some("no checker capture (the projector with a checker pattern) among the views' positions")
                 }
                 _ => None,

@@ -584,14 +584,7 @@ fn refine_values(
 /// The views `kind`'s network fuses.
 fn views_for(kind: Param, inputs: &SceneInputs) -> Vec<usize> {
     (0..inputs.views.len())
-        .filter(|&i| {
-            let v = &inputs.views[i];
-            match kind {
-                Param::Transmission => v.has_backlit(),
-                Param::Subsurface => v.has_checker(),
-                _ => true,
-            }
-        })
+        .filter(|&i| inputs.views[i].serves(kind))
         .collect()
 }
 

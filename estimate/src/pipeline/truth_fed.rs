@@ -95,15 +95,6 @@ pub struct SceneData {
     pub mask: Vec<f32>,
 }
 
-/// Whether a view of `kind` is used (the same rule as the pipeline's).
-fn uses_view(kind: Param, backlit: bool, checker: bool) -> bool {
-    match kind {
-        Param::Transmission => backlit,
-        Param::Subsurface => checker,
-        _ => true,
-    }
-}
-
 fn scalar_truth(bundle: &Bundle, position: &str, param: Param) -> Result<Vec<f32>, SceneError> {
     let what = format!("truth {}", param.name());
     match bundle.read_truth(position, &TruthMap::Param(param))? {
@@ -206,7 +197,7 @@ pub fn load_scenes(path: &Path, kinds: &[Param]) -> Result<Vec<Option<SceneData>
         let which: Vec<usize> = (0..inputs.views.len())
             .filter(|&i| {
                 let v = &inputs.views[i];
-                uses_view(kind, v.has_backlit(), v.has_checker())
+                v.serves(kind)
             })
             .collect();
         if which.is_empty() {

@@ -31,6 +31,7 @@ use crate::scene::rig::{rig_to_manifest_lights, DROWNED_THRESHOLD};
 use crate::scene::{EnvSource, RigPosition, Scene};
 use glam::Vec3;
 use matscan_scan::bundle::{BundleWriter, TruthMap};
+use matscan_scan::capture_list::{position_captures, CaptureKind, UNIFORM_LEVEL};
 use matscan_scan::image_io::Precision;
 use matscan_scan::raster::RgbRaster;
 use matscan_scan::{Bundle, Capture, Manifest, Param, Pattern, PinholeCamera, Position};
@@ -204,47 +205,42 @@ pub fn write_truth(writer: &BundleWriter, name: &str, truth: &TruthMaps) -> Resu
     Ok(())
 }
 
-/// The contract's captures for one position.
-fn plan_captures(rig: &RigPosition, (small, large): (u32, u32)) -> Vec<PlannedCapture> {
-    let mut out = vec![PlannedCapture {
-        spec: CaptureSpec::new("ambient", &[], None),
-        lit: false,
-    }];
-    for f in &rig.flashes {
-        out.push(PlannedCapture {
-            spec: CaptureSpec::new(&f.name, &[&f.name], None),
-            lit: true,
-        });
-    }
+/// The contract's captures for one position (`matscan_scan::capture_list`),
+/// lit by this rig position's lights.
+fn plan_captures(rig: &RigPosition, checkers: (u32, u32)) -> Vec<PlannedCapture> {
     let projector = rig.projector.name.as_str();
-    out.push(PlannedCapture {
-        spec: CaptureSpec::new(
-            projector,
-            &[projector],
-            Some(Pattern::Uniform { level: 0.5 }),
-        ),
-        lit: true,
-    });
-    out.push(PlannedCapture {
-        spec: CaptureSpec::new(&rig.backlight.name, &[&rig.backlight.name], None),
-        lit: false,
-    });
-    for period in [small, large] {
-        out.push(PlannedCapture {
-            spec: CaptureSpec::new(
-                &format!("checker_{period}"),
-                &[projector],
-                Some(Pattern::Checker {
-                    period_px: period as f64,
-                    phase_px: [0.0, 0.0],
-                    low: 0.0,
-                    high: 1.0,
-                }),
-            ),
-            lit: false,
-        });
-    }
-    out
+    position_captures(rig.flashes.len(), checkers)
+        .into_iter()
+        .map(|kind| {
+            let name = kind.name();
+            let spec = match kind {
+                CaptureKind::Ambient => CaptureSpec::new(&name, &[], None),
+                CaptureKind::Flash(i) => CaptureSpec::new(&name, &[&rig.flashes[i].name], None),
+                CaptureKind::Uniform => CaptureSpec::new(
+                    &name,
+                    &[projector],
+                    Some(Pattern::Uniform {
+                        level: f64::from(UNIFORM_LEVEL),
+                    }),
+                ),
+                CaptureKind::Backlit => CaptureSpec::new(&name, &[&rig.backlight.name], None),
+                CaptureKind::Checker { period_px } => CaptureSpec::new(
+                    &name,
+                    &[projector],
+                    Some(Pattern::Checker {
+                        period_px: f64::from(period_px),
+                        phase_px: [0.0, 0.0],
+                        low: 0.0,
+                        high: 1.0,
+                    }),
+                ),
+            };
+            PlannedCapture {
+                spec,
+                lit: kind.is_view(),
+            }
+        })
+        .collect()
 }
 
 /// The two checker periods (projector pixels, even) of a scene; see the
