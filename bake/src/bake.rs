@@ -13,7 +13,6 @@ use crate::maps::BakeInput;
 use crate::pushpull::push_pull;
 use crate::textures::BakedTextures;
 use crate::views::PositionView;
-use matscan_scan::bundle::TruthMap;
 use matscan_scan::bvh::RayCaster;
 use matscan_scan::estimate_maps::{read_position_maps, ParamMap, PositionMaps};
 use matscan_scan::raster::{MaskRaster, RgbRaster, ScalarRaster};
@@ -201,24 +200,14 @@ pub fn read_truth_maps(bundle: &Bundle) -> Result<Vec<BakeInput>, BakeError> {
         let name = &position.name;
         let mut maps = Vec::new();
         for param in Param::ALL {
-            let Some(image) = bundle.read_truth(name, &TruthMap::Param(param))? else {
-                continue;
-            };
-            let map = match (param, image) {
-                (Param::Basecolor, image) => image.into_rgb().map(ParamMap::basecolor),
-                (p, image) => image
-                    .into_scalar()
-                    .map(|r| ParamMap::scalar(p, r))
-                    .transpose()?,
-            };
-            maps.extend(map);
+            if let Some(values) = bundle.truth_param(name, param)? {
+                maps.push(ParamMap::new(param, values)?);
+            }
         }
         if maps.is_empty() {
             continue;
         }
-        let mask = bundle
-            .read_truth(name, &TruthMap::Mask)?
-            .and_then(|m| m.into_mask());
+        let mask = bundle.truth_mask(name)?;
         out.push(BakeInput {
             position_maps: PositionMaps {
                 position: name.clone(),

@@ -9,6 +9,7 @@
 use crate::atomic::{write_atomic, PendingDir};
 use crate::camera::PinholeCamera;
 use crate::error::ScanError;
+use crate::estimate_maps::MapValues;
 use crate::image_io::{self, Precision};
 use crate::manifest::{Capture, Manifest, Position};
 use crate::mesh::Mesh;
@@ -316,6 +317,28 @@ impl Bundle {
     }
 
     /// A truth map of a simulated scan; `None` where the bundle has none.
+    /// The truth object mask of `position` (simulated scans); `None`
+    /// without one.
+    pub fn truth_mask(&self, position: &str) -> Result<Option<MaskRaster>, ScanError> {
+        Ok(self
+            .read_truth(position, &TruthMap::Mask)?
+            .and_then(TruthImage::into_mask))
+    }
+
+    /// `param`'s truth map at `position` (simulated scans; RGB for
+    /// basecolor); `None` without one.
+    pub fn truth_param(
+        &self,
+        position: &str,
+        param: Param,
+    ) -> Result<Option<MapValues>, ScanError> {
+        Ok(match self.read_truth(position, &TruthMap::Param(param))? {
+            Some(TruthImage::Rgb(r)) => Some(MapValues::Rgb(r)),
+            Some(TruthImage::Scalar(r)) => Some(MapValues::Scalar(r)),
+            _ => None,
+        })
+    }
+
     pub fn read_truth(
         &self,
         position: &str,

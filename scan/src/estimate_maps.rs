@@ -42,6 +42,14 @@ impl MapValues {
             MapValues::Scalar(r) => r.height,
         }
     }
+
+    /// The values pixel-major (RGB interleaved) and the channels per pixel.
+    pub fn flat(&self) -> (&[f32], usize) {
+        match self {
+            MapValues::Rgb(r) => (r.data.as_flattened(), 3),
+            MapValues::Scalar(r) => (&r.data, 1),
+        }
+    }
 }
 
 /// A map that breaks the rules of its parameter.
@@ -94,6 +102,19 @@ impl ParamMap {
             values: MapValues::Scalar(values),
             confidence: None,
         })
+    }
+
+    /// `param`'s map of `values`: RGB for basecolor, one channel for the
+    /// others.
+    pub fn new(param: Param, values: MapValues) -> Result<Self, MapError> {
+        match values {
+            MapValues::Rgb(r) if param == Param::Basecolor => Ok(Self::basecolor(r)),
+            MapValues::Rgb(_) => Err(MapError::WrongParam {
+                param,
+                message: "only basecolor has three channels".into(),
+            }),
+            MapValues::Scalar(r) => Self::scalar(param, r),
+        }
     }
 
     /// Adds a confidence map; it must have the values' size.

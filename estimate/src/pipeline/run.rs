@@ -39,10 +39,10 @@ use crate::refine::{
 };
 use burn::tensor::Device;
 use matscan_calib::{calibrate_bundle, CalibError, CalibOptions, ScanCalibration};
-use matscan_scan::estimate_maps::{MapError, MapValues, ParamMap, PositionMaps};
+use matscan_scan::estimate_maps::{MapError, ParamMap, PositionMaps};
 use matscan_scan::image_io::{read_rgb_exr, read_scalar_exr};
 use matscan_scan::raster::{RgbRaster, ScalarRaster};
-use matscan_scan::{Bundle, Param, ScanError, TruthMap};
+use matscan_scan::{Bundle, Param, ScanError};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -796,25 +796,20 @@ fn metrics(
     maps: &[ParamMap],
     inputs: &SceneInputs,
 ) -> Result<BTreeMap<String, crate::pipeline::metrics::ErrorMetrics>, EstimateError> {
-    let mask = match bundle.read_truth(reference, &TruthMap::Mask)? {
-        Some(m) => m.into_mask().map(|m| m.data),
-        None => None,
-    }
-    .unwrap_or_else(|| inputs.mask.data.clone());
+    let mask = bundle
+        .truth_mask(reference)?
+        .map_or_else(|| inputs.mask.data.clone(), |m| m.data);
     let mut out = BTreeMap::new();
     for map in maps {
-        let (kind, param) = (map.param(), map.param());
-        let Some(truth) = bundle.read_truth(reference, &TruthMap::Param(param))? else {
+        let kind = map.param();
+        let Some(truth) = bundle.truth_param(reference, kind)? else {
             continue;
         };
-        let found = match (map.values(), truth) {
-            (MapValues::Rgb(e), matscan_scan::TruthImage::Rgb(t)) => {
-                error_metrics(e.data.as_flattened(), t.data.as_flattened(), &mask, 3)
-            }
-            (MapValues::Scalar(e), matscan_scan::TruthImage::Scalar(t)) => {
-                error_metrics(&e.data, &t.data, &mask, 1)
-            }
-            _ => None,
+        let ((estimated, channels), (truth, truth_channels)) = (map.values().flat(), truth.flat());
+        let found = if channels == truth_channels {
+            error_metrics(estimated, truth, &mask, channels)
+        } else {
+            None
         };
         if let Some(m) = found {
             out.insert(kind.name().to_string(), m);

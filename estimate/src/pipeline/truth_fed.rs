@@ -22,6 +22,7 @@ use burn::tensor::Device;
 use matscan_calib::photos::luma;
 use matscan_calib::white_reference::ycbcr;
 use matscan_calib::{calibrate_bundle, CalibOptions};
+use matscan_scan::estimate_maps::MapValues;
 use matscan_scan::{Bundle, Param, TruthImage, TruthMap};
 use std::path::{Path, PathBuf};
 
@@ -97,8 +98,8 @@ pub struct SceneData {
 
 fn scalar_truth(bundle: &Bundle, position: &str, param: Param) -> Result<Vec<f32>, SceneError> {
     let what = format!("truth {}", param.name());
-    match bundle.read_truth(position, &TruthMap::Param(param))? {
-        Some(TruthImage::Scalar(r)) => Ok(r.data.iter().map(|v| unit(*v)).collect()),
+    match bundle.truth_param(position, param)? {
+        Some(MapValues::Scalar(r)) => Ok(r.data.iter().map(|v| unit(*v)).collect()),
         _ => Err(SceneError::NoTruth {
             path: bundle.root.clone(),
             what,
@@ -135,11 +136,10 @@ pub fn load_scenes(path: &Path, kinds: &[Param]) -> Result<Vec<Option<SceneData>
         what: what.to_string(),
     };
 
-    let truth_mask = match bundle.read_truth(&reference, &TruthMap::Mask)? {
-        Some(TruthImage::Mask(m)) => m.data,
-        Some(TruthImage::Scalar(s)) => s.data.iter().map(|v| *v > 0.5).collect(),
-        _ => return Err(no_truth("truth mask")),
-    };
+    let truth_mask = bundle
+        .truth_mask(&reference)?
+        .ok_or_else(|| no_truth("truth mask"))?
+        .data;
     let mask: Vec<f32> = (0..n)
         .map(|i| f32::from(u8::from(inputs.mask.data[i] && truth_mask[i])))
         .collect();
@@ -239,8 +239,7 @@ pub fn load_scenes(path: &Path, kinds: &[Param]) -> Result<Vec<Option<SceneData>
             Param::Transmission => transmission.clone(),
             Param::Subsurface => subsurface.clone(),
             Param::Basecolor => {
-                let Some(TruthImage::Rgb(rgb)) =
-                    bundle.read_truth(&reference, &TruthMap::Param(Param::Basecolor))?
+                let Some(MapValues::Rgb(rgb)) = bundle.truth_param(&reference, Param::Basecolor)?
                 else {
                     return Err(no_truth("truth basecolor"));
                 };

@@ -3,16 +3,13 @@
 //! mean truth of a set).
 
 use anyhow::Result;
-use matscan_scan::{Bundle, Param, TruthImage, TruthMap};
+use matscan_scan::{Bundle, Param};
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
 /// The object mask of `position`'s truth; `None` without one.
 pub fn truth_mask(bundle: &Bundle, position: &str) -> Result<Option<Vec<bool>>> {
-    Ok(match bundle.read_truth(position, &TruthMap::Mask)? {
-        Some(m) => m.into_mask().map(|m| m.data),
-        None => None,
-    })
+    Ok(bundle.truth_mask(position)?.map(|m| m.data))
 }
 
 /// One parameter's truth at one position: values (pixel-major) and
@@ -20,18 +17,12 @@ pub fn truth_mask(bundle: &Bundle, position: &str) -> Result<Option<Vec<bool>>> 
 pub fn truth_values(
     bundle: &Bundle,
     position: &str,
-    kind: Param,
+    param: Param,
 ) -> Result<Option<(Vec<f32>, usize)>> {
-    let Ok(param) = kind.name().parse::<Param>() else {
-        return Ok(None);
-    };
-    Ok(
-        match bundle.read_truth(position, &TruthMap::Param(param))? {
-            Some(TruthImage::Rgb(r)) => Some((r.data.as_flattened().to_vec(), 3)),
-            Some(TruthImage::Scalar(r)) => Some((r.data, 1)),
-            _ => None,
-        },
-    )
+    Ok(bundle.truth_param(position, param)?.map(|v| {
+        let (values, channels) = v.flat();
+        (values.to_vec(), channels)
+    }))
 }
 
 /// Mean masked truth value per parameter over every position of `scans`
