@@ -122,7 +122,7 @@ impl Worker {
                             },
                             _ => {
                                 tracing::info!("job {}: estimating {}", job.id, job.scan.display());
-                                estimate_scan(&job, prepared.as_ref(), &settings, started)
+                                estimate_scan(&job, &prepared, &settings, started)
                             }
                         };
                         match &outcome {
@@ -189,17 +189,19 @@ fn refusal(scan: &Path, problems: &[String]) -> String {
 }
 
 /// Opens, calibrates and checks the scan at `scan`; the opened and
-/// calibrated scan comes back for the estimate, so it is calibrated once.
-pub fn check_scan(scan: &Path) -> (Verdict, Option<PreparedScan>) {
+/// calibrated scan (or why it could not be) comes back for the estimate,
+/// so it is opened and calibrated once.
+pub fn check_scan(scan: &Path) -> (Verdict, Result<PreparedScan, String>) {
     let prepared = match PreparedScan::open(scan, &EstimateOptions::default().calib) {
         Ok(p) => p,
         Err(e) => {
+            let error = e.to_string();
             return (
                 Verdict::Failed {
-                    error: e.to_string(),
+                    error: error.clone(),
                 },
-                None,
-            )
+                Err(error),
+            );
         }
     };
     let report = check(
@@ -218,14 +220,15 @@ pub fn check_scan(scan: &Path) -> (Verdict, Option<PreparedScan>) {
             error: e.to_string(),
         },
     };
-    (verdict, Some(prepared))
+    (verdict, Ok(prepared))
 }
 
-/// Estimates `job`'s scan into `<scan>/estimate`, from `prepared` where the
-/// check already opened and calibrated it (`started`: when that began).
+/// Estimates `job`'s scan into `<scan>/estimate` from the scan the check
+/// opened and calibrated (`started`: when that began); a scan that could
+/// not be opened fails with that reason.
 pub fn estimate_scan(
     job: &Job,
-    prepared: Option<&PreparedScan>,
+    prepared: &Result<PreparedScan, String>,
     settings: &EstimateSettings,
     started: std::time::Instant,
 ) -> EstimateOutcome {
@@ -243,11 +246,15 @@ pub fn estimate_scan(
         given,
         ..EstimateOptions::default()
     };
-    let result = match prepared {
-        Some(p) => estimate_prepared(p, models, &options, &cpu_device(), started),
-        None => matscan_estimate::estimate(&job.scan, models, &options, &cpu_device()),
+    let prepared = match prepared {
+        Ok(p) => p,
+        Err(error) => {
+            return EstimateOutcome::Failed {
+                error: format!("{}: {error}", job.scan.display()),
+            }
+        }
     };
-    match result {
+    match estimate_prepared(prepared, models, &options, &cpu_device(), started) {
         Ok(report) => EstimateOutcome::Estimated {
             summary: summary(&report.out, &report.result),
         },

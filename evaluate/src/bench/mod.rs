@@ -40,9 +40,10 @@ use crate::plot::chart::{self, Chart, Panel, Point, Series};
 use crate::scans::{all_views, view_filter};
 use anyhow::{bail, Context, Result};
 use burn::tensor::Device;
-use matscan_estimate::device::backend::{Backend, CpuBackend};
+use matscan_estimate::device::backend::{Backend, BackendError, CpuBackend};
 use matscan_estimate::net::weights::EMBEDDED;
 use matscan_estimate::refine::RefineOptions;
+use matscan_estimate::GpuUnavailable;
 use matscan_estimate::{EstimateOptions, ModelSource, Models, NetConfig, ParamNet};
 use matscan_scan::Param;
 use matscan_sim::render::SimOptions;
@@ -499,23 +500,24 @@ fn run_config(
     scratch: &Path,
     progress: &mut dyn FnMut(&str),
 ) -> Result<Outcome> {
-    let device = match config.backend {
-        Backend::Gpu => match matscan_estimate::gpu_device() {
-            Ok((device, adapter)) => {
+    let device = match config.backend.device() {
+        Ok((device, adapter)) => {
+            if let Some(adapter) = adapter {
                 progress(&format!("gpu row on {adapter}"));
-                device
             }
-            Err(matscan_estimate::GpuUnavailable::NotBuilt) => {
-                return Ok(Outcome::NotBuilt(
-                    "not built (no GPU backend in this build; --features vulkan)".to_string(),
-                ))
-            }
-            Err(unavailable) => return Ok(Outcome::NotBuilt(format!("no GPU ({unavailable})"))),
-        },
-        Backend::Cpu(b) => match b.device() {
-            Ok(d) => d,
-            Err(missing) => return Ok(Outcome::NotBuilt(format!("not built ({missing})"))),
-        },
+            device
+        }
+        Err(BackendError::Gpu(GpuUnavailable::NotBuilt)) => {
+            return Ok(Outcome::NotBuilt(
+                "not built (no GPU backend in this build; --features vulkan)".to_string(),
+            ))
+        }
+        Err(BackendError::Gpu(unavailable)) => {
+            return Ok(Outcome::NotBuilt(format!("no GPU ({unavailable})")))
+        }
+        Err(BackendError::Cpu(missing)) => {
+            return Ok(Outcome::NotBuilt(format!("not built ({missing})")))
+        }
     };
     let trained = config.width_percent == 100;
     let mut results = Vec::new();

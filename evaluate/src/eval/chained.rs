@@ -5,7 +5,6 @@
 use super::options::EvalOptions;
 use super::report::Configuration;
 use super::tables::{scene_group, GroupBy, SceneResult};
-use super::truth::{truth_mask, truth_values};
 use crate::scans::view_filter;
 use anyhow::{Context, Result};
 use burn::tensor::Device;
@@ -66,7 +65,7 @@ pub fn evaluate_scene_with(
     };
     // The truth mask is read once, and only when a baseline is compared.
     let mask = match baseline {
-        Some(_) => truth_mask(&bundle, reference)?,
+        Some(_) => bundle.truth_mask(reference)?.map(|m| m.data),
         None => None,
     };
     for kind in matscan_estimate::PIPELINE_ORDER {
@@ -78,11 +77,12 @@ pub fn evaluate_scene_with(
         else {
             continue;
         };
-        let Some((values, channels)) = truth_values(&bundle, reference, kind)? else {
+        let Some(truth) = bundle.truth_param(reference, kind)? else {
             continue;
         };
+        let (values, channels) = truth.flat();
         let constant = vec![*mean as f32; values.len()];
-        if let Some(b) = error_metrics(&constant, &values, mask, channels) {
+        if let Some(b) = error_metrics(&constant, values, mask, channels) {
             result.baseline.insert(kind, b);
         }
     }

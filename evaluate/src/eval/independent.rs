@@ -17,7 +17,6 @@
 //! `truth_fed::predict`; tables are the module root's.
 
 use super::tables::{scene_group, GroupBy, SceneResult};
-use super::truth::{truth_mask, truth_values};
 use anyhow::{Context, Result};
 use burn::tensor::Device;
 use matscan_estimate::pipeline::metrics::error_metrics;
@@ -61,7 +60,9 @@ pub fn evaluate_scene_independent(
         return Ok(results);
     };
     // The loader has required the truth mask already.
-    let mask = truth_mask(&bundle, &reference)?
+    let mask = bundle
+        .truth_mask(&reference)?
+        .map(|m| m.data)
         .with_context(|| format!("{}: no truth mask at {reference}", scan.display()))?;
     for (kind, scene) in matscan_estimate::PIPELINE_ORDER.into_iter().zip(scenes) {
         let Some(scene) = scene else {
@@ -70,12 +71,13 @@ pub fn evaluate_scene_independent(
         let model = models
             .get(kind)
             .with_context(|| format!("no {kind} network loaded"))?;
-        let Some((truth, channels)) = truth_values(&bundle, &reference, kind)? else {
+        let Some(truth) = bundle.truth_param(&reference, kind)? else {
             continue;
         };
+        let (truth, channels) = truth.flat();
         // The baseline does not depend on the views.
         let base = baseline.get(&kind).and_then(|mean| {
-            error_metrics(&vec![*mean as f32; truth.len()], &truth, &mask, channels)
+            error_metrics(&vec![*mean as f32; truth.len()], truth, &mask, channels)
         });
         for (result, &count) in results.iter_mut().zip(counts) {
             let t = Instant::now();
@@ -85,7 +87,7 @@ pub fn evaluate_scene_independent(
             if map.channels != channels {
                 continue;
             }
-            if let Some(m) = error_metrics(&map.data, &truth, &mask, channels) {
+            if let Some(m) = error_metrics(&map.data, truth, &mask, channels) {
                 result.metrics.insert(kind, m);
             }
             if let Some(b) = base {
