@@ -1,6 +1,8 @@
 //! The baker's entry points: [`bake_maps`] (any per-position maps, e.g. a
 //! simulated scan's truth), [`bake_scan`] (a scan's `estimate/` folder)
-//! and [`bake_truth`] (a simulated scan's `truth/` folder).
+//! and [`bake_truth`] (a simulated scan's `truth/` folder); the
+//! `_calibrated` variants take the scan's calibration where the caller has
+//! it, so the position maps are not computed again.
 //!
 //! Steps: rasterize the UV atlas ([`crate::atlas`]), prepare each position
 //! ([`crate::views`]), fuse ([`crate::fuse`]), fill holes per parameter
@@ -13,6 +15,7 @@ use crate::maps::BakeInput;
 use crate::pushpull::push_pull;
 use crate::textures::BakedTextures;
 use crate::views::PositionView;
+use matscan_calib::ScanCalibration;
 use matscan_scan::bvh::RayCaster;
 use matscan_scan::estimate_maps::{read_position_maps, ParamMap, PositionMaps};
 use matscan_scan::raster::{MaskRaster, RgbRaster, ScalarRaster};
@@ -52,6 +55,18 @@ pub fn bake_maps(
     positions: &[BakeInput],
     options: &BakeOptions,
 ) -> Result<BakedTextures, BakeError> {
+    bake_maps_calibrated(bundle, positions, None, options)
+}
+
+/// [`bake_maps`] reusing the per-position pixel maps of `calibration`,
+/// the scan's calibration where the caller already made it (the same
+/// maps the baker would compute; positions it lacks are computed).
+pub fn bake_maps_calibrated(
+    bundle: &Bundle,
+    positions: &[BakeInput],
+    calibration: Option<&ScanCalibration>,
+    options: &BakeOptions,
+) -> Result<BakedTextures, BakeError> {
     if options.size == 0 || options.size > MAX_SIZE {
         return Err(BakeError::InvalidOption {
             what: "size",
@@ -83,7 +98,19 @@ pub fn bake_maps(
     let manifest_path = bundle.manifest_path();
     let views = positions
         .iter()
-        .map(|p| PositionView::prepare(&bundle.manifest, &manifest_path, &caster, p, &slots))
+        .map(|p| {
+            let calibrated = calibration
+                .and_then(|c| c.position(&p.position_maps.position))
+                .map(|c| &c.maps);
+            PositionView::prepare(
+                &bundle.manifest,
+                &manifest_path,
+                &caster,
+                p,
+                &slots,
+                calibrated,
+            )
+        })
         .collect::<Result<Vec<_>, _>>()?;
     let size = options.size;
     let atlas = Atlas::rasterize(&caster.mesh, &uvs, size, size, options.gutter);
@@ -157,6 +184,17 @@ pub fn bake_bundle(
     estimate_dir: &Path,
     options: &BakeOptions,
 ) -> Result<BakedTextures, BakeError> {
+    bake_bundle_calibrated(bundle, estimate_dir, None, options)
+}
+
+/// [`bake_bundle`] reusing `calibration`'s pixel maps (see
+/// [`bake_maps_calibrated`]).
+pub fn bake_bundle_calibrated(
+    bundle: &Bundle,
+    estimate_dir: &Path,
+    calibration: Option<&ScanCalibration>,
+    options: &BakeOptions,
+) -> Result<BakedTextures, BakeError> {
     if !estimate_dir.is_dir() {
         return Err(BakeError::NothingToBake {
             path: estimate_dir.to_path_buf(),
@@ -172,7 +210,7 @@ pub fn bake_bundle(
                 .into(),
         });
     }
-    bake_maps(bundle, &positions, options)
+    bake_maps_calibrated(bundle, &positions, calibration, options)
 }
 
 /// Reads every position's estimate maps from `estimate_dir`.

@@ -5,14 +5,17 @@
 //! Illumination comes from `matscan_calib::position_maps`: a pixel is lit
 //! where at least one posed light (flash or projector) reaches it (front
 //! side, unoccluded, inside the projector's image). The backlight has no
-//! pose and does not count. Calibration runs at the camera's resolution,
-//! so it costs what one calibration of the position costs, not per texel.
+//! pose and does not count. Those maps are the scan's calibration's own
+//! where the caller has it (the estimate just made it); otherwise they
+//! are computed here, at the camera's resolution, at the cost of one
+//! calibration of the position, not per texel.
 
 use crate::distance::distance_to_background;
 use crate::error::BakeError;
 use crate::maps::BakeInput;
 use crate::sampling::{scalar_plane, Plane};
 use glam::Vec3;
+use matscan_calib::PixelMaps;
 use matscan_scan::bvh::RayCaster;
 use matscan_scan::estimate_maps::MapValues;
 use matscan_scan::{Manifest, Param, PinholeCamera, ScanError};
@@ -43,13 +46,15 @@ pub(crate) struct PositionView {
 
 impl PositionView {
     /// Prepares `input` for parameter slots `slots`; `manifest_path` names
-    /// the manifest in errors.
+    /// the manifest in errors. `calibrated` is the position's pixel maps
+    /// where a calibration of the scan already made them.
     pub fn prepare(
         manifest: &Manifest,
         manifest_path: &Path,
         caster: &RayCaster,
         input: &BakeInput,
         slots: &[Param],
+        calibrated: Option<&PixelMaps>,
     ) -> Result<PositionView, BakeError> {
         let position = manifest
             .positions
@@ -62,7 +67,14 @@ impl PositionView {
                     input.position_maps.position
                 ),
             })?;
-        let calib = matscan_calib::position_maps(caster, &manifest.camera, position);
+        let computed;
+        let calib = match calibrated {
+            Some(maps) => maps,
+            None => {
+                computed = matscan_calib::position_maps(caster, &manifest.camera, position);
+                &computed
+            }
+        };
         let camera = calib.camera;
         let (width, height) = (
             manifest.camera.width as usize,

@@ -9,11 +9,21 @@
 //! finite pixels after leaving out the brightest 0.1% of them, and at least
 //! the 8 brightest, so a few hot pixels of a real camera cannot make a
 //! drowned light look visible; on noise-free renders lit by a light
-//! covering more than that, the two agree. A position is flagged when any of its lit
-//! captures stays below the threshold: that light's inputs carry nothing.
+//! covering more than that, the two agree.
+//!
+//! A position is flagged when *any* of its lit captures stays below the
+//! threshold. The thesis's words are "we check if the maximum difference of
+//! any of them is below a threshold of 0.1"; the reading "any one capture's
+//! maximum" is also the one that fits its purpose: the networks take every
+//! lit capture as input, and a capture drowned by the environment feeds
+//! them an input that carries nothing, whatever the other lights show. This
+//! is the project's one implementation of the rule: the simulator applies
+//! [`CaptureLight::measure`] to its exact light-only renders to flag
+//! drowned positions in `truth/scene.toml`.
 
 use crate::error::CalibError;
 use crate::photos::{difference, load, PhotoSource};
+use matscan_scan::raster::RgbRaster;
 use matscan_scan::{CaptureRole, Intrinsics, Position};
 use serde::Serialize;
 
@@ -49,6 +59,30 @@ pub struct CaptureLight {
     pub max_difference: f32,
     /// `max_difference < threshold`.
     pub too_dim: bool,
+}
+
+impl CaptureLight {
+    /// Judges one lit capture from its `lit - ambient` image (exposure
+    /// compensated, in the lit photo's units).
+    pub fn measure(
+        capture: &str,
+        light: &str,
+        difference: &RgbRaster,
+        options: &BadLightOptions,
+    ) -> Self {
+        let mut per_pixel: Vec<f32> = difference
+            .data
+            .iter()
+            .map(|c| c[0].max(c[1]).max(c[2]))
+            .collect();
+        let max_difference = robust_max(&mut per_pixel, options).unwrap_or(0.0);
+        CaptureLight {
+            capture: capture.to_string(),
+            light: light.to_string(),
+            max_difference,
+            too_dim: max_difference < options.threshold,
+        }
+    }
 }
 
 /// The bad-light verdict for one position.
@@ -127,14 +161,7 @@ pub fn bad_light(
             &ambient,
             ambient_capture.exposure_s,
         );
-        let mut per_pixel: Vec<f32> = diff.data.iter().map(|c| c[0].max(c[1]).max(c[2])).collect();
-        let max_difference = robust_max(&mut per_pixel, options).unwrap_or(0.0);
-        captures.push(CaptureLight {
-            capture: capture.name.clone(),
-            light,
-            max_difference,
-            too_dim: max_difference < options.threshold,
-        });
+        captures.push(CaptureLight::measure(&capture.name, &light, &diff, options));
     }
     Ok(BadLight {
         position: position.name.clone(),

@@ -37,8 +37,10 @@ use crate::rerender::{
 };
 use anyhow::{bail, Context, Result};
 use matscan_bake::{
-    bake_maps, bake_scan, read_textures, read_truth_maps, texture_dir, BakeOptions, BakedTextures,
+    bake_maps_calibrated, bake_scan, read_textures, read_truth_maps, texture_dir, BakeOptions,
+    BakedTextures,
 };
+use matscan_calib::ScanCalibration;
 use matscan_estimate::pipeline::output::ResultFile;
 use matscan_scan::atomic::write_atomic;
 use matscan_scan::image_io::{write_preview_png, write_rgb_exr};
@@ -91,8 +93,13 @@ pub fn estimated_textures(
 
 /// The true textures of a simulated scan, baked as `like` was (same size)
 /// and as `matscan_bake::bake_truth` bakes them; `None` for a scan without
-/// truth maps. Each truth file is read once.
-pub fn true_textures(bundle: &Bundle, like: &BakedTextures) -> Result<Option<BakedTextures>> {
+/// truth maps. Each truth file is read once; `calibration`, where the
+/// caller has the scan's, spares computing its position maps again.
+pub fn true_textures(
+    bundle: &Bundle,
+    like: &BakedTextures,
+    calibration: Option<&ScanCalibration>,
+) -> Result<Option<BakedTextures>> {
     let context = || format!("baking the truth maps of {}", bundle.root.display());
     let positions = read_truth_maps(bundle).with_context(context)?;
     if positions.is_empty() {
@@ -102,7 +109,8 @@ pub fn true_textures(bundle: &Bundle, like: &BakedTextures) -> Result<Option<Bak
         size: like.width(),
         ..BakeOptions::default()
     };
-    let t = bake_maps(bundle, &positions, &options).with_context(context)?;
+    let t =
+        bake_maps_calibrated(bundle, &positions, calibration, &options).with_context(context)?;
     Ok(Some(t))
 }
 
@@ -178,7 +186,7 @@ pub fn run(args: &RenderOptions) -> Result<String> {
     for (shot, r) in shots.iter().zip(&renders) {
         write_render(&args.out, &shot.name(), r)?;
     }
-    let Some(truth) = true_textures(&bundle, &estimated)? else {
+    let Some(truth) = true_textures(&bundle, &estimated, None)? else {
         let _ = writeln!(
             report,
             "{} images in {} (no truth: not a simulated scan)",

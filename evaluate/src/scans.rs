@@ -3,10 +3,10 @@
 //! --dataset` and `--recipe` write them), and each scan's usable views.
 
 use anyhow::{bail, Context, Result};
-use matscan_calib::{calibrate_bundle, CalibOptions};
+use matscan_calib::CalibOptions;
+use matscan_estimate::pipeline::run::PreparedScan;
 use matscan_estimate::pipeline::views::select_views;
 use matscan_estimate::ViewFilter;
-use matscan_scan::Bundle;
 use std::path::{Path, PathBuf};
 
 /// The scans named by `paths`: each a scan folder itself, or a folder of
@@ -41,14 +41,21 @@ pub fn scans_in(dir: &Path) -> Result<Vec<PathBuf>> {
 /// The usable views of `scan` (`position/capture`), reference position
 /// first; `None` when none is usable.
 pub fn all_views(scan: &Path) -> Result<Option<Vec<String>>> {
-    let bundle = Bundle::open(scan)?;
-    let calibration = calibrate_bundle(&bundle, &CalibOptions::default())
+    let prepared = PreparedScan::open(scan, &CalibOptions::default())
         .with_context(|| format!("calibrating {}", scan.display()))?;
-    Ok(
-        select_views(&bundle.manifest, &calibration, &ViewFilter::default())
-            .ok()
-            .map(|set| set.views.iter().map(|v| v.to_string()).collect()),
+    Ok(usable_views(&prepared))
+}
+
+/// The usable views of a scan already opened and calibrated, as
+/// [`all_views`].
+pub fn usable_views(prepared: &PreparedScan) -> Option<Vec<String>> {
+    select_views(
+        &prepared.bundle.manifest,
+        &prepared.calibration,
+        &ViewFilter::default(),
     )
+    .ok()
+    .map(|set| set.views.iter().map(|v| v.to_string()).collect())
 }
 
 /// The view filter of configuration `count` (0 = every view) for a scan
@@ -60,14 +67,5 @@ pub fn view_filter(count: usize, all: Option<&[String]>) -> ViewFilter {
             positions: Vec::new(),
             views: all.iter().take(count).cloned().collect(),
         },
-    }
-}
-
-/// The usable views of each of `scans` when any of `counts` needs them.
-pub fn views_of_scans(scans: &[PathBuf], counts: &[usize]) -> Result<Vec<Option<Vec<String>>>> {
-    if counts.iter().any(|&c| c > 0) {
-        scans.iter().map(|scan| all_views(scan)).collect()
-    } else {
-        Ok(vec![None; scans.len()])
     }
 }

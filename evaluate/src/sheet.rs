@@ -25,7 +25,8 @@ struct Tile {
     rgb: Vec<f32>,
 }
 
-const LABEL_H: u32 = font::GLYPH_H + 5;
+/// Label text size, pixels.
+const TEXT_PX: f32 = 11.0;
 const GAP: u32 = 4;
 const MAX_TILE: u32 = 192;
 
@@ -233,28 +234,38 @@ fn tile_scalar(label: &str, map: &ScalarRaster) -> Tile {
 }
 
 fn compose(title: &str, rows: &[(String, Vec<Tile>)], out: &Path) -> Result<()> {
+    let label_h = font::line_height(TEXT_PX) + 4;
     let row_label_w = rows
         .iter()
-        .map(|(l, _)| font::text_width(l, 1))
+        .map(|(l, _)| font::text_width(l, TEXT_PX))
         .max()
         .unwrap_or(0)
         + 2 * GAP;
     let row_w = |tiles: &[Tile]| tiles.iter().map(|t| t.width + GAP).sum::<u32>();
-    let row_h = |tiles: &[Tile]| tiles.iter().map(|t| t.height).max().unwrap_or(0) + LABEL_H;
+    let row_h = |tiles: &[Tile]| tiles.iter().map(|t| t.height).max().unwrap_or(0) + label_h;
     let width = (row_label_w + rows.iter().map(|(_, t)| row_w(t)).max().unwrap_or(0) + GAP)
-        .max(font::text_width(title, 1) + 2 * GAP);
-    let height = LABEL_H + GAP + rows.iter().map(|(_, t)| row_h(t) + GAP).sum::<u32>();
+        .max(font::text_width(title, TEXT_PX) + 2 * GAP);
+    let height = label_h + GAP + rows.iter().map(|(_, t)| row_h(t) + GAP).sum::<u32>();
     let mut buf = vec![0.015f32; (width * height * 3) as usize];
-    font::draw_text(&mut buf, width, height, GAP, 2, 1, [1.0, 1.0, 1.0], title);
-    let mut y = LABEL_H + GAP;
+    font::draw_text(
+        &mut buf,
+        width,
+        height,
+        GAP,
+        2,
+        TEXT_PX,
+        [1.0, 1.0, 1.0],
+        title,
+    );
+    let mut y = label_h + GAP;
     for (label, tiles) in rows {
         font::draw_text(
             &mut buf,
             width,
             height,
             GAP,
-            y + LABEL_H,
-            1,
+            y + label_h,
+            TEXT_PX,
             [0.6, 0.6, 0.6],
             label,
         );
@@ -266,13 +277,13 @@ fn compose(title: &str, rows: &[(String, Vec<Tile>)], out: &Path) -> Result<()> 
                 height,
                 x,
                 y + 2,
-                1,
+                TEXT_PX,
                 [0.8, 0.8, 0.2],
                 &t.label,
             );
             for ty in 0..t.height {
                 let src = (ty * t.width * 3) as usize;
-                let dst = (((y + LABEL_H + ty) * width + x) * 3) as usize;
+                let dst = (((y + label_h + ty) * width + x) * 3) as usize;
                 buf[dst..dst + (t.width * 3) as usize]
                     .copy_from_slice(&t.rgb[src..src + (t.width * 3) as usize]);
             }

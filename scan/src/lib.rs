@@ -23,7 +23,6 @@ pub mod bundle;
 pub mod bvh;
 pub mod camera;
 pub mod capture_list;
-pub mod draw;
 pub mod error;
 pub mod estimate_maps;
 pub mod image_io;

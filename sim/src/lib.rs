@@ -13,7 +13,9 @@
 //! the estimator fits.
 //!
 //! Boundaries: reads and writes bundles only through `matscan-scan`; knows
-//! nothing of calibration or estimation.
+//! nothing of estimation. It uses one rule of `matscan-calib`, thesis
+//! 3.1.6's bad-light test, to flag drowned positions in its metadata, so
+//! the simulator and the estimator judge a position alike.
 //!
 //! Crate choices: `rayon` for tile-parallel rendering (work stealing keeps
 //! both cores busy when tiles differ in cost); `rand_pcg` for a small,

@@ -4,7 +4,8 @@
 //! All the work is `matscan_estimate::train`, built in with this binary's
 //! feature `train` (`cargo build --release -p matscan --features train`;
 //! without it the command says so): this command parses arguments, picks the device and
-//! draws progress. Training resumes from `<out>/latest` when a checkpoint
+//! draws progress and the loss plot (`loss.png`, redrawn from `loss.csv`
+//! after every logged row by `matscan_evaluate::plot::loss`). Training resumes from `<out>/latest` when a checkpoint
 //! exists, so a killed run is continued by running the same command again.
 //! Output: `<out>/<param>.weights` (load with `--weights <out>` or copy into
 //! `estimate/weights/` to embed), `loss.csv`, `loss.png`, `checkpoint-*/`.
@@ -102,8 +103,11 @@ mod imp {
     use indicatif::{ProgressBar, ProgressStyle};
     use matscan_estimate::device::backend::training_device;
     use matscan_estimate::net::weights::WeightSource;
+    use matscan_estimate::train::history::read_rows;
     use matscan_estimate::train::{train, Event, TrainConfig};
+    use matscan_evaluate::plot::loss::{write_loss_png, LossPoint};
     use matscan_scan::Param;
+    use std::path::Path;
     use std::path::PathBuf;
 
     pub fn train_network(args: &TrainArgs) -> Result<()> {
@@ -196,6 +200,11 @@ mod imp {
             Event::Logged(row) => {
                 let test = row.test.map(|t| format!(", test {t:.5}")).unwrap_or_default();
                 say(&bar, format!("step {}: train {:.5}{test}", row.step, row.train));
+                // The plot is a view of loss.csv: failing to draw it costs
+                // the picture, never the training.
+                if let Err(e) = draw_loss(kind, &args.out) {
+                    say(&bar, format!("loss plot: {e:#}"));
+                }
             }
             Event::Checkpoint(_) => {}
         })
@@ -209,5 +218,20 @@ mod imp {
             args.out.join("loss.csv").display()
         );
         Ok(())
+    }
+
+    /// Redraws `<out>/loss.png` from `<out>/loss.csv`, the whole history.
+    fn draw_loss(kind: Param, out: &Path) -> Result<()> {
+        let csv = out.join("loss.csv");
+        let history: Vec<LossPoint> = read_rows(&csv)
+            .with_context(|| format!("reading {}", csv.display()))?
+            .iter()
+            .map(|r| LossPoint {
+                step: r.step,
+                train: r.train,
+                test: r.test,
+            })
+            .collect();
+        write_loss_png(kind.name(), &history, &out.join("loss.png"))
     }
 }

@@ -97,7 +97,6 @@ impl Worker {
             .spawn(move || {
                 for job in rx {
                     tracing::info!("job {}: checking {}", job.id, job.scan.display());
-                    let started = std::time::Instant::now();
                     let (verdict, prepared) = check_scan(&job.scan);
                     match &verdict {
                         Verdict::Passed => {
@@ -122,7 +121,7 @@ impl Worker {
                             },
                             _ => {
                                 tracing::info!("job {}: estimating {}", job.id, job.scan.display());
-                                estimate_scan(&job, &prepared, &settings, started)
+                                estimate_scan(&job, &prepared, &settings)
                             }
                         };
                         match &outcome {
@@ -224,13 +223,12 @@ pub fn check_scan(scan: &Path) -> (Verdict, Result<PreparedScan, String>) {
 }
 
 /// Estimates `job`'s scan into `<scan>/estimate` from the scan the check
-/// opened and calibrated (`started`: when that began); a scan that could
-/// not be opened fails with that reason.
+/// opened and calibrated; a scan that could not be opened fails with that
+/// reason.
 pub fn estimate_scan(
     job: &Job,
     prepared: &Result<PreparedScan, String>,
     settings: &EstimateSettings,
-    started: std::time::Instant,
 ) -> EstimateOutcome {
     let models = match &settings.weights {
         Some(dir) => ModelSource::Dir(dir.clone()),
@@ -254,7 +252,7 @@ pub fn estimate_scan(
             }
         }
     };
-    match estimate_prepared(prepared, models, &options, &cpu_device(), started) {
+    match estimate_prepared(prepared, models, &options, &cpu_device()) {
         Ok(report) => EstimateOutcome::Estimated {
             summary: summary(&report.out, &report.result),
         },

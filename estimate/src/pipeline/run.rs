@@ -203,20 +203,21 @@ pub fn estimate(
     options: &EstimateOptions,
     device: &Device,
 ) -> Result<EstimateReport, EstimateError> {
-    let start = Instant::now();
     let prepared = PreparedScan::open(scan, &options.calib)?;
-    estimate_prepared(&prepared, models, options, device, start)
+    estimate_prepared(&prepared, models, options, device)
 }
 
 /// [`estimate`] of a scan already opened and calibrated (with
-/// `options.calib`); `start` is when the work on it began, for the total.
+/// `options.calib`). Its total time counts the opening and calibration
+/// once, as [`estimate`]'s does, however often the prepared scan is
+/// estimated (eval runs several view configurations on one).
 pub fn estimate_prepared(
     prepared: &PreparedScan,
     models: ModelSource,
     options: &EstimateOptions,
     device: &Device,
-    start: Instant,
 ) -> Result<EstimateReport, EstimateError> {
+    let start = Instant::now();
     let PreparedScan {
         bundle,
         calibration,
@@ -307,7 +308,7 @@ pub fn estimate_prepared(
         .map(|(k, (_, s))| (k.name().to_string(), *s))
         .collect();
     timings.refine_s = tally.seconds;
-    timings.total_s = start.elapsed().as_secs_f64();
+    timings.total_s = prepared.load_s + prepared.calibration_s + start.elapsed().as_secs_f64();
 
     let mut params = BTreeMap::new();
     for kind in crate::net::spec::PIPELINE_ORDER {

@@ -51,7 +51,4 @@ pub enum TrainError {
     /// The backend failed to give data back.
     #[error("backend: {0}")]
     Backend(String),
-    /// The loss plot could not be encoded.
-    #[error("loss plot: {0}")]
-    Plot(String),
 }

@@ -26,7 +26,8 @@
 //! Every random choice of step `s` comes from a generator seeded by
 //! `(seed, s)`, so a run resumed from a checkpoint draws the same samples
 //! as one never interrupted; checkpoints also hold the Adam state (see
-//! `checkpoint`). Losses go to `loss.csv` and `loss.png` (see `plot`), the
+//! `checkpoint`). Losses go to `loss.csv` (see `history`; the caller draws
+//! it), the
 //! final network to `<out>/<param>.weights` in the `weights` format.
 //!
 //! Out of scope: progress display (the caller's, through [`Event`]), data
@@ -35,8 +36,8 @@
 pub mod checkpoint;
 pub mod data;
 pub mod error;
+pub mod history;
 pub mod loss;
-pub mod plot;
 
 use crate::net::network::{ConfigError, NetConfig, ParamNet};
 use crate::net::weights::{self, WeightSource};
@@ -65,7 +66,7 @@ pub struct TrainConfig {
     pub data: PathBuf,
     /// Folder of test bundles (the test loss); none when `None`.
     pub test: Option<PathBuf>,
-    /// Output folder: weights, checkpoints, loss.csv, loss.png.
+    /// Output folder: weights, checkpoints, loss.csv.
     pub out: PathBuf,
     /// Total steps (one scene each).
     pub steps: usize,
@@ -238,7 +239,7 @@ pub enum Event {
         phase: Phase,
     },
     /// A log row was written.
-    Logged(plot::Row),
+    Logged(history::Row),
     /// A checkpoint was written.
     Checkpoint(PathBuf),
 }
@@ -372,21 +373,20 @@ pub fn train(
         _ => Vec::new(),
     };
     let csv = config.out.join("loss.csv");
-    let png = config.out.join("loss.png");
 
     let mut optimizer = AdamConfig::new().init();
     let (mut net, mut step, past_seconds) = match checkpoint::load(&config.out, net_config, device)?
     {
         Some(restored) => {
             optimizer = optimizer.load_record(restored.optimizer);
-            plot::truncate(&csv, restored.step)?;
+            history::truncate(&csv, restored.step)?;
             (restored.net, restored.step, restored.seconds)
         }
         None => {
             device.seed(config.seed);
             // A fresh run starts a fresh history.
             if csv.exists() {
-                plot::truncate(&csv, 0)?;
+                history::truncate(&csv, 0)?;
             }
             let net = match &config.init {
                 None => ParamNet::new(net_config, device),
@@ -409,7 +409,6 @@ pub fn train(
         tests: &tests,
         device,
         csv: &csv,
-        png: &png,
         start,
         past_seconds,
         interval: (0.0, 0),
@@ -498,13 +497,12 @@ pub fn train(
     })
 }
 
-/// `loss.csv` and `loss.png` of a run, and the losses since the last row.
+/// `loss.csv` of a run, and the losses since the last row.
 struct LossLog<'a> {
     config: &'a TrainConfig,
     tests: &'a [SceneData],
     device: &'a Device,
     csv: &'a Path,
-    png: &'a Path,
     start: Instant,
     past_seconds: f64,
     /// Sum and count of the training losses since the last row.
@@ -515,7 +513,8 @@ struct LossLog<'a> {
 
 impl LossLog<'_> {
     /// Writes one row of `loss.csv` (evaluating the test scenes) and
-    /// redraws the plot; nothing when no step ran since the last row.
+    /// reports it as [`Event::Logged`]; nothing when no step ran since the
+    /// last row.
     fn row(
         &mut self,
         net: &ParamNet,
@@ -539,7 +538,7 @@ impl LossLog<'_> {
             }
             Some(sum / self.tests.len() as f64)
         };
-        let row = plot::Row {
+        let row = history::Row {
             step,
             phase: phase.name().to_string(),
             views,
@@ -547,8 +546,7 @@ impl LossLog<'_> {
             test,
             seconds: self.past_seconds + self.start.elapsed().as_secs_f64(),
         };
-        plot::append(self.csv, &row)?;
-        plot::draw(&plot::read_rows(self.csv)?, self.png)?;
+        history::append(self.csv, &row)?;
         self.last_train = Some(train);
         if test.is_some() {
             self.last_test = test;

@@ -735,6 +735,7 @@ pub fn chart(rows: &[Row], title: &str) -> Chart {
         x_label: "median seconds per scan (log)".to_string(),
         y_label: "MAD".to_string(),
         x_log: true,
+        y_log: false,
         panels,
         columns: 3,
     }

@@ -5,12 +5,12 @@
 use super::options::EvalOptions;
 use super::report::Configuration;
 use super::tables::{scene_group, GroupBy, SceneResult};
-use crate::scans::view_filter;
+use crate::scans::{usable_views, view_filter};
 use anyhow::{Context, Result};
 use burn::tensor::Device;
 use matscan_estimate::pipeline::metrics::error_metrics;
-use matscan_estimate::{estimate, EstimateOptions, ModelSource, References};
-use matscan_scan::Bundle;
+use matscan_estimate::pipeline::run::{estimate_prepared, PreparedScan};
+use matscan_estimate::{EstimateOptions, ModelSource, References};
 use matscan_scan::Param;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -27,8 +27,10 @@ pub fn evaluate_scene(
     group_by: GroupBy,
     baseline: Option<&BTreeMap<Param, f64>>,
 ) -> Result<SceneResult> {
-    evaluate_scene_with(
-        scan,
+    let prepared = PreparedScan::open(scan, &options.calib)
+        .with_context(|| format!("estimating {}", scan.display()))?;
+    evaluate_prepared(
+        &prepared,
         models,
         options,
         device,
@@ -38,23 +40,25 @@ pub fn evaluate_scene(
     )
 }
 
-/// [`evaluate_scene`], handing the opened scan, the estimate's folder and
-/// the reference position to `inspect` before the folder is removed
-/// (`--textures` scores the estimate there).
-pub fn evaluate_scene_with(
-    scan: &Path,
+/// [`evaluate_scene`] of a scan opened and calibrated once (with
+/// `options.calib`) for every configuration, handing the prepared scan,
+/// the estimate's folder and the reference position to `inspect` before
+/// the folder is removed (`--textures` scores the estimate there).
+pub fn evaluate_prepared(
+    prepared: &PreparedScan,
     models: ModelSource,
     options: &EstimateOptions,
     device: &Device,
     group_by: GroupBy,
     baseline: Option<&BTreeMap<Param, f64>>,
-    inspect: &mut dyn FnMut(&Bundle, &Path, &str),
+    inspect: &mut dyn FnMut(&PreparedScan, &Path, &str),
 ) -> Result<SceneResult> {
-    let bundle = Bundle::open(scan)?;
-    let report = estimate(scan, models, options, device)
+    let bundle = &prepared.bundle;
+    let scan = bundle.root.as_path();
+    let report = estimate_prepared(prepared, models, options, device)
         .with_context(|| format!("estimating {}", scan.display()))?;
     let reference = report.result.reference_position.as_str();
-    inspect(&bundle, &report.out, reference);
+    inspect(prepared, &report.out, reference);
     let _ = std::fs::remove_dir_all(&report.out);
     let mut result = SceneResult {
         scan: scan.to_path_buf(),
@@ -89,11 +93,12 @@ pub fn evaluate_scene_with(
     Ok(result)
 }
 
-/// Every configuration of `views` through the chained estimate.
+/// Every configuration of `views` through the chained estimate; each scan
+/// is opened and calibrated once for listing its views and for every
+/// configuration.
 pub(super) fn chained_configurations(
     args: &EvalOptions,
     scans: &[PathBuf],
-    views_of: &[Option<Vec<String>>],
     baseline: &BTreeMap<Param, f64>,
     scratch: &Path,
     device: &Device,
@@ -102,13 +107,33 @@ pub(super) fn chained_configurations(
         Some(dir) => ModelSource::Dir(dir.clone()),
         None => ModelSource::Embedded,
     };
-    let mut out = Vec::with_capacity(args.views.len());
-    for &count in &args.views {
-        let mut c = Configuration::default();
-        for (i, scan) in scans.iter().enumerate() {
+    let mut out: Vec<Configuration> = args
+        .views
+        .iter()
+        .map(|_| Configuration::default())
+        .collect();
+    let lists_views = args.views.iter().any(|&count| count > 0);
+    for (i, scan) in scans.iter().enumerate() {
+        let calib = EstimateOptions::default().calib;
+        let prepared = match PreparedScan::open(scan, &calib) {
+            Ok(p) => p,
+            Err(e) => {
+                for c in &mut out {
+                    c.failures
+                        .push(format!("estimating {}: {e}", scan.display()));
+                }
+                continue;
+            }
+        };
+        let all = if lists_views {
+            usable_views(&prepared)
+        } else {
+            None
+        };
+        for (c, &count) in out.iter_mut().zip(&args.views) {
             let options = EstimateOptions {
                 out: Some(scratch.join(format!("{count}-{i}"))),
-                filter: view_filter(count, views_of[i].as_deref()),
+                filter: view_filter(count, all.as_deref()),
                 // Texture scores bake what `matscan export` bakes: maps of
                 // every position (one network pass per position).
                 references: if args.textures.is_some() {
@@ -116,19 +141,20 @@ pub(super) fn chained_configurations(
                 } else {
                     References::First
                 },
+                calib,
                 ..EstimateOptions::default()
             };
             let textures = &mut c.textures;
-            match evaluate_scene_with(
-                scan,
+            match evaluate_prepared(
+                &prepared,
                 models(),
                 &options,
                 device,
                 args.group_by,
                 Some(baseline),
-                &mut |bundle, out, reference| {
+                &mut |prepared, out, reference| {
                     if let Some(size) = args.textures {
-                        textures.add_scan(bundle, out, reference, size);
+                        textures.add_scan(prepared, out, reference, size);
                     }
                 },
             ) {
@@ -136,8 +162,7 @@ pub(super) fn chained_configurations(
                 Err(e) => c.failures.push(format!("{e:#}")),
             }
         }
-        let _ = std::fs::remove_dir_all(scratch);
-        out.push(c);
     }
+    let _ = std::fs::remove_dir_all(scratch);
     out
 }

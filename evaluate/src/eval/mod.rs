@@ -32,7 +32,7 @@ pub mod tables;
 pub mod texture;
 pub mod truth;
 
-use crate::scans::{collect_scans, scans_in, views_of_scans};
+use crate::scans::{collect_scans, scans_in};
 use anyhow::{bail, Context, Result};
 use burn::tensor::Device;
 use chained::chained_configurations;
@@ -109,10 +109,7 @@ pub fn run(args: &EvalOptions) -> Result<EvalReport> {
     );
     let configurations = match args.dependencies {
         DependencySource::Estimated => {
-            // Every scan's usable views in order, calibrated once for all
-            // configurations.
-            let views_of = views_of_scans(&scans, &args.views)?;
-            chained_configurations(args, &scans, &views_of, &baseline, &scratch, &device)
+            chained_configurations(args, &scans, &baseline, &scratch, &device)
         }
         DependencySource::Truth => {
             let models = match &args.weights {

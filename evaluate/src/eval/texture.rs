@@ -38,9 +38,10 @@ use crate::rerender::{
     material_from_textures, Framing, LightName, Lighting, RenderSettings, ScanObject, Shot,
 };
 use anyhow::{Context, Result};
-use matscan_bake::{bake_scan, BakeOptions, BakedTextures};
+use matscan_bake::{bake_bundle_calibrated, BakeOptions, BakedTextures};
 use matscan_estimate::pipeline::metrics::{error_metrics, ErrorMetrics};
-use matscan_scan::{Bundle, Param};
+use matscan_estimate::pipeline::run::PreparedScan;
+use matscan_scan::Param;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
@@ -98,22 +99,25 @@ fn shots(framing: &Framing) -> Vec<Shot> {
     shots
 }
 
-/// Scores the estimate in `estimate_dir` of the simulated scan `bundle`
-/// (reference position `reference`) with textures of `size` texels.
+/// Scores the estimate in `estimate_dir` of the simulated scan `prepared`
+/// (reference position `reference`) with textures of `size` texels; both
+/// bakes reuse the scan's calibration.
 pub fn score_scan(
-    bundle: &Bundle,
+    prepared: &PreparedScan,
     estimate_dir: &Path,
     reference: &str,
     size: u32,
 ) -> Result<TextureScore> {
+    let bundle = &prepared.bundle;
+    let calibration = Some(&prepared.calibration);
     let scan = bundle.root.as_path();
     let options = BakeOptions {
         size,
         ..BakeOptions::default()
     };
-    let estimated = bake_scan(scan, estimate_dir, &options)
+    let estimated = bake_bundle_calibrated(bundle, estimate_dir, calibration, &options)
         .with_context(|| format!("baking the estimate of {}", scan.display()))?;
-    let truth = true_textures(bundle, &estimated)?
+    let truth = true_textures(bundle, &estimated, calibration)?
         .with_context(|| format!("{}: no truth maps to compare with", scan.display()))?;
     let params = texture_errors(&estimated, &truth);
     let object = ScanObject::new(bundle, reference)
@@ -192,8 +196,14 @@ pub struct TextureTable {
 impl TextureTable {
     /// Scores the estimate in `estimate_dir` and adds it; a scan that
     /// cannot be scored is counted and named instead of stopping the run.
-    pub fn add_scan(&mut self, bundle: &Bundle, estimate_dir: &Path, reference: &str, size: u32) {
-        match score_scan(bundle, estimate_dir, reference, size) {
+    pub fn add_scan(
+        &mut self,
+        prepared: &PreparedScan,
+        estimate_dir: &Path,
+        reference: &str,
+        size: u32,
+    ) {
+        match score_scan(prepared, estimate_dir, reference, size) {
             Ok(score) => self.add(&score),
             Err(e) => self.failures.push(format!("{e:#}")),
         }

@@ -1,19 +1,28 @@
 //! Labelled line charts as PNG: a grid of panels sharing one x axis (linear
-//! or log10), each with its own linear y axis from zero, one coloured line
-//! per series with a labelled marker per point, tick labels, axis titles
-//! and a legend. Used by `matscan bench` (error against run time).
+//! or log10), each with its own y axis (linear from zero, or log10), one
+//! coloured line per series with a labelled marker per point, tick labels,
+//! axis titles and a legend. Used by `matscan bench` (error against run
+//! time) and `matscan train` (the loss history).
 //!
-//! Drawing uses the pixel and line primitives the trainer's loss plot uses
-//! (`matscan_scan::draw`) and the bitmap font of [`super::font`]; the
-//! `image` crate encodes.
+//! [`Axis`] chooses each axis's range and ticks (whole decades on log axes,
+//! round steps from zero on linear ones), so every chart of a kind reads
+//! alike; `plotters` draws (its bitmap backend, text in the embedded
+//! typeface of [`super::font`]), `image` encodes. A log axis is drawn as a
+//! linear axis over log10 of the values, labelled with the values.
+//!
+//! Crate choice: `plotters` is the well-kept Rust plotting crate; with
+//! only its bitmap backend, line and point series and `ab_glyph` text it
+//! adds no system library.
 //!
 //! Boundaries: geometry and pixels only; what the numbers mean is the
 //! caller's.
 
 use super::font;
-use anyhow::{Context, Result};
-use image::{ImageFormat, Rgb, RgbImage};
-use matscan_scan::draw::{line, put};
+use anyhow::{anyhow, Context, Result};
+use image::{ImageFormat, RgbImage};
+use plotters::coord::ranged1d::{KeyPointHint, NoDefaultFormatting, Ranged, ValueFormatter};
+use std::ops::Range;
+use plotters::prelude::*;
 use std::path::Path;
 
 /// One axis's value range and scale.
@@ -68,22 +77,6 @@ impl Axis {
         }
     }
 
-    /// Where `v` lies from `lo` (0) to `hi` (1); `None` for values the axis
-    /// cannot place (non-finite, or not positive on a log axis). Values
-    /// outside the range map outside [0, 1].
-    pub fn fraction(&self, v: f64) -> Option<f64> {
-        if !v.is_finite() || (self.log && v <= 0.0) {
-            return None;
-        }
-        let (v, lo, hi) = if self.log {
-            (v.log10(), self.lo.log10(), self.hi.log10())
-        } else {
-            (v, self.lo, self.hi)
-        };
-        let span = hi - lo;
-        (span.is_finite() && span > 0.0).then(|| (v - lo) / span)
-    }
-
     /// Tick values: decades (with 2 and 5 between when the axis spans at
     /// most two decades) on a log axis; about five round steps on a linear
     /// one.
@@ -114,6 +107,74 @@ impl Axis {
         }
         ticks
     }
+
+    /// Where `v` lies on the drawn (linear) axis: `log10(v)` on a log axis;
+    /// `None` for values the axis cannot place (non-finite, or not
+    /// positive on a log axis).
+    pub fn drawn(&self, v: f64) -> Option<f64> {
+        if !v.is_finite() || (self.log && v <= 0.0) {
+            return None;
+        }
+        Some(if self.log { v.log10() } else { v })
+    }
+
+    /// The value at drawn position `d` (the inverse of [`Axis::drawn`]).
+    fn value(&self, d: f64) -> f64 {
+        if self.log {
+            10f64.powf(d)
+        } else {
+            d
+        }
+    }
+
+    /// The drawn range and its ticks, for plotters.
+    fn drawn_range(&self) -> DrawnAxis {
+        let lo = self.drawn(self.lo).unwrap_or(0.0);
+        let hi = self.drawn(self.hi).filter(|h| *h > lo).unwrap_or(lo + 1.0);
+        DrawnAxis {
+            axis: *self,
+            range: lo..hi,
+            ticks: self.ticks().iter().filter_map(|&t| self.drawn(t)).collect(),
+        }
+    }
+}
+
+/// An [`Axis`] as plotters sees it: linear over the drawn values, with
+/// exactly the axis's ticks (as the mesh's bold lines and labels; no light
+/// lines), labelled with the values.
+#[derive(Clone, Debug)]
+struct DrawnAxis {
+    axis: Axis,
+    range: Range<f64>,
+    ticks: Vec<f64>,
+}
+
+impl Ranged for DrawnAxis {
+    type ValueType = f64;
+    type FormatOption = NoDefaultFormatting;
+
+    fn map(&self, value: &f64, limit: (i32, i32)) -> i32 {
+        let f = (value - self.range.start) / (self.range.end - self.range.start);
+        limit.0 + (f * f64::from(limit.1 - limit.0)).round() as i32
+    }
+
+    fn key_points<Hint: KeyPointHint>(&self, hint: Hint) -> Vec<f64> {
+        if hint.weight().allow_light_points() {
+            Vec::new()
+        } else {
+            self.ticks.clone()
+        }
+    }
+
+    fn range(&self) -> Range<f64> {
+        self.range.clone()
+    }
+}
+
+impl ValueFormatter<f64> for DrawnAxis {
+    fn format_ext(&self, value: &f64) -> String {
+        tick_label(self.axis.value(*value))
+    }
 }
 
 /// The round step (1, 2 or 5 times a power of ten) nearest above `raw`.
@@ -140,27 +201,6 @@ pub fn tick_label(v: f64) -> String {
         }
     }
     format!("{v:.4}")
-}
-
-/// A pixel rectangle of a panel's plotting area.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct PlotRect {
-    pub left: i64,
-    pub top: i64,
-    pub right: i64,
-    pub bottom: i64,
-}
-
-impl PlotRect {
-    /// The pixel of (`x`, `y`): x grows rightwards, y upwards (rows count
-    /// down from the top, hence `bottom - ...`).
-    pub fn pixel_of(&self, x: &Axis, y: &Axis, (vx, vy): (f64, f64)) -> Option<(i64, i64)> {
-        let (fx, fy) = (x.fraction(vx)?, y.fraction(vy)?);
-        Some((
-            self.left + (fx * (self.right - self.left) as f64).round() as i64,
-            self.bottom - (fy * (self.bottom - self.top) as f64).round() as i64,
-        ))
-    }
 }
 
 /// One point: coordinates and a short label drawn beside its marker.
@@ -193,49 +233,36 @@ pub struct Chart {
     pub x_label: String,
     pub y_label: String,
     pub x_log: bool,
+    pub y_log: bool,
     pub panels: Vec<Panel>,
     /// Panels per row (the legend takes the next free cell).
     pub columns: usize,
 }
 
-const PANEL_W: u32 = 480;
-const PANEL_H: u32 = 340;
-const TITLE_H: u32 = 40;
-/// Text scale of titles, axis labels and ticks (14 px tall glyphs).
-const TEXT: u32 = 2;
-const MARGIN_L: i64 = 84;
-const MARGIN_R: i64 = 16;
-const MARGIN_T: i64 = 34;
-const MARGIN_B: i64 = 56;
-const BLACK: Rgb<u8> = Rgb([0, 0, 0]);
-const GRID: Rgb<u8> = Rgb([228, 228, 228]);
+pub const PANEL_W: u32 = 480;
+pub const PANEL_H: u32 = 340;
+pub const TITLE_H: u32 = 40;
+/// Text sizes, pixels: chart title, panel titles and axis titles, ticks,
+/// point labels.
+const TITLE_PX: f64 = 22.0;
+const HEADING_PX: f64 = 17.0;
+const TICK_PX: f64 = 14.0;
+const LABEL_PX: f64 = 11.0;
+const GRID: RGBColor = RGBColor(228, 228, 228);
+const AXIS_TITLE: RGBColor = RGBColor(90, 90, 90);
 
-fn text(img: &mut RgbImage, x: i64, y: i64, scale: u32, colour: Rgb<u8>, s: &str) {
-    if x < 0 || y < 0 {
-        return;
-    }
-    font::for_each_pixel(x as u32, y as u32, scale, s, |px, py| {
-        put(img, (i64::from(px), i64::from(py)), colour);
-    });
-}
-
-fn marker(img: &mut RgbImage, (x, y): (i64, i64), colour: Rgb<u8>) {
-    for dy in -3..=3 {
-        for dx in -3..=3 {
-            put(img, (x + dx, y + dy), colour);
-        }
-    }
+fn drawing(e: impl std::fmt::Display) -> anyhow::Error {
+    anyhow!("drawing the chart: {e}")
 }
 
 /// Draws `chart`.
-pub fn render(chart: &Chart) -> RgbImage {
+pub fn render(chart: &Chart) -> Result<RgbImage> {
+    font::register();
     let columns = chart.columns.max(1);
     let cells = chart.panels.len() + 1;
-    let rows = cells.div_ceil(columns) as u32;
-    let (width, height) = (columns as u32 * PANEL_W, TITLE_H + rows * PANEL_H);
-    let mut img = RgbImage::from_pixel(width, height, Rgb([255, 255, 255]));
-    text(&mut img, 12, 12, TEXT, BLACK, &chart.title);
-
+    let rows = cells.div_ceil(columns);
+    let (width, height) = (columns as u32 * PANEL_W, TITLE_H + rows as u32 * PANEL_H);
+    let mut buf = vec![255u8; width as usize * height as usize * 3];
     let x_axis = Axis::fit(
         chart
             .panels
@@ -245,133 +272,110 @@ pub fn render(chart: &Chart) -> RgbImage {
             .map(|p| p.x),
         chart.x_log,
     );
-    let glyph_h = (font::GLYPH_H * TEXT) as i64;
-    for (i, panel) in chart.panels.iter().enumerate() {
-        let (cx, cy) = (
-            (i % columns) as i64 * PANEL_W as i64,
-            TITLE_H as i64 + (i / columns) as i64 * PANEL_H as i64,
-        );
-        let rect = PlotRect {
-            left: cx + MARGIN_L,
-            top: cy + MARGIN_T,
-            right: cx + PANEL_W as i64 - MARGIN_R,
-            bottom: cy + PANEL_H as i64 - MARGIN_B,
-        };
-        let y_axis = Axis::fit(
-            panel.series.iter().flat_map(|s| &s.points).map(|p| p.y),
-            false,
-        );
-        for t in y_axis.ticks() {
-            if let Some((_, py)) = rect.pixel_of(&x_axis, &y_axis, (x_axis.lo, t)) {
-                line(&mut img, (rect.left, py), (rect.right, py), GRID);
-                let label = tick_label(t);
-                let w = font::text_width(&label, TEXT) as i64;
-                text(
-                    &mut img,
-                    rect.left - 6 - w,
-                    py - glyph_h / 2,
-                    TEXT,
-                    BLACK,
-                    &label,
-                );
-            }
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, (width, height)).into_drawing_area();
+        let (title, body) = root.split_vertically(TITLE_H);
+        title
+            .draw(&Text::new(
+                chart.title.clone(),
+                (12, 10),
+                (font::FAMILY, TITLE_PX).into_font(),
+            ))
+            .map_err(drawing)?;
+        let areas = body.split_evenly((rows, columns));
+        for (panel, area) in chart.panels.iter().zip(&areas) {
+            draw_panel(chart, panel, area, &x_axis)?;
         }
-        for t in x_axis.ticks() {
-            if let Some((px, _)) = rect.pixel_of(&x_axis, &y_axis, (t, y_axis.lo)) {
-                line(&mut img, (px, rect.top), (px, rect.bottom), GRID);
-                let label = tick_label(t);
-                let w = font::text_width(&label, TEXT) as i64;
-                text(&mut img, px - w / 2, rect.bottom + 6, TEXT, BLACK, &label);
-            }
+        if let Some(area) = areas.get(chart.panels.len()) {
+            draw_legend(chart, area)?;
         }
-        line(
-            &mut img,
-            (rect.left, rect.bottom),
-            (rect.right, rect.bottom),
-            BLACK,
-        );
-        line(
-            &mut img,
-            (rect.left, rect.top),
-            (rect.left, rect.bottom),
-            BLACK,
-        );
-        text(&mut img, rect.left, cy + 10, TEXT, BLACK, &panel.title);
-        let y_title_w = font::text_width(&chart.y_label, TEXT) as i64;
-        text(
-            &mut img,
-            (rect.left - y_title_w - 6).max(cx + 4),
-            cy + 10,
-            TEXT,
-            Rgb([90, 90, 90]),
-            &chart.y_label,
-        );
-        let x_title_w = font::text_width(&chart.x_label, TEXT) as i64;
-        text(
-            &mut img,
-            (rect.left + rect.right) / 2 - x_title_w / 2,
-            rect.bottom + 12 + glyph_h,
-            TEXT,
-            Rgb([90, 90, 90]),
-            &chart.x_label,
-        );
-        for series in &panel.series {
-            let colour = Rgb(series.colour);
-            let placed: Vec<((i64, i64), &str)> = series
-                .points
-                .iter()
-                .filter_map(|p| {
-                    rect.pixel_of(&x_axis, &y_axis, (p.x, p.y))
-                        .map(|px| (px, p.label.as_str()))
-                })
-                .collect();
-            for pair in placed.windows(2) {
-                line(&mut img, pair[0].0, pair[1].0, colour);
-                // Two pixels thick, so lines stay visible when scaled down.
-                line(
-                    &mut img,
-                    (pair[0].0 .0, pair[0].0 .1 + 1),
-                    (pair[1].0 .0, pair[1].0 .1 + 1),
-                    colour,
-                );
-            }
-            for ((x, y), label) in &placed {
-                marker(&mut img, (*x, *y), colour);
-                text(&mut img, x + 6, y - 12, 1, colour, label);
-            }
-        }
+        root.present().map_err(drawing)?;
     }
+    RgbImage::from_raw(width, height, buf).context("chart buffer size")
+}
 
-    // Legend in the next free cell: one swatch and name per series.
-    let i = chart.panels.len();
-    let (cx, cy) = (
-        (i % columns) as i64 * PANEL_W as i64,
-        TITLE_H as i64 + (i / columns) as i64 * PANEL_H as i64,
+fn draw_panel(
+    chart: &Chart,
+    panel: &Panel,
+    area: &DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>,
+    x_axis: &Axis,
+) -> Result<()> {
+    let y_axis = Axis::fit(
+        panel.series.iter().flat_map(|s| &s.points).map(|p| p.y),
+        chart.y_log,
     );
+    let mut plot = ChartBuilder::on(area)
+        .caption(&panel.title, (font::FAMILY, HEADING_PX))
+        .margin(10)
+        .x_label_area_size(46)
+        .y_label_area_size(64)
+        .build_cartesian_2d(x_axis.drawn_range(), y_axis.drawn_range())
+        .map_err(drawing)?;
+    plot.configure_mesh()
+        .x_desc(chart.x_label.as_str())
+        .y_desc(chart.y_label.as_str())
+        .bold_line_style(GRID)
+        .light_line_style(TRANSPARENT)
+        .label_style((font::FAMILY, TICK_PX))
+        .axis_desc_style((font::FAMILY, HEADING_PX).into_font().color(&AXIS_TITLE))
+        .draw()
+        .map_err(drawing)?;
+    for series in &panel.series {
+        let [r, g, b] = series.colour;
+        let colour = RGBColor(r, g, b);
+        let placed: Vec<(f64, f64, &str)> = series
+            .points
+            .iter()
+            .filter_map(|p| Some((x_axis.drawn(p.x)?, y_axis.drawn(p.y)?, p.label.as_str())))
+            .collect();
+        plot.draw_series(LineSeries::new(
+            placed.iter().map(|&(x, y, _)| (x, y)),
+            colour.stroke_width(2),
+        ))
+        .map_err(drawing)?;
+        let label_font = (font::FAMILY, LABEL_PX).into_font().color(&colour);
+        plot.draw_series(placed.iter().map(|&(x, y, label)| {
+            EmptyElement::at((x, y))
+                + Rectangle::new([(-3, -3), (3, 3)], colour.filled())
+                + Text::new(label.to_string(), (6, -14), label_font.clone())
+        }))
+        .map_err(drawing)?;
+    }
+    Ok(())
+}
+
+/// One swatch and name per series, in the cell after the last panel.
+fn draw_legend(
+    chart: &Chart,
+    area: &DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>,
+) -> Result<()> {
     let mut names: Vec<(&str, [u8; 3])> = Vec::new();
     for s in chart.panels.iter().flat_map(|p| &p.series) {
         if !names.iter().any(|(n, _)| *n == s.name) {
             names.push((&s.name, s.colour));
         }
     }
-    for (k, (name, colour)) in names.iter().enumerate() {
-        let y = cy + MARGIN_T + k as i64 * (glyph_h + 12);
-        for dy in 0..glyph_h {
-            line(
-                &mut img,
-                (cx + MARGIN_L, y + dy),
-                (cx + MARGIN_L + 24, y + dy),
-                Rgb(*colour),
-            );
-        }
-        text(&mut img, cx + MARGIN_L + 34, y, TEXT, BLACK, name);
+    let row = font::line_height(TICK_PX as f32) as i32 + 12;
+    for (k, (name, [r, g, b])) in names.iter().enumerate() {
+        let y = 44 + k as i32 * row;
+        area.draw(&Rectangle::new(
+            [(84, y), (108, y + row - 12)],
+            RGBColor(*r, *g, *b).filled(),
+        ))
+        .map_err(drawing)?;
+        area.draw(&Text::new(
+            name.to_string(),
+            (118, y),
+            (font::FAMILY, TICK_PX).into_font(),
+        ))
+        .map_err(drawing)?;
     }
-    img
+    Ok(())
 }
 
 /// Draws `chart` into a PNG at `path` (atomically).
 pub fn write_png(chart: &Chart, path: &Path) -> Result<()> {
-    let img = render(chart);
+    let img = render(chart).with_context(|| format!("drawing {}", path.display()))?;
     let mut bytes = std::io::Cursor::new(Vec::new());
     img.write_to(&mut bytes, ImageFormat::Png)
         .with_context(|| format!("encoding {}", path.display()))?;
@@ -387,11 +391,10 @@ mod tests {
     fn log_axis_spans_whole_decades_and_places_values_by_their_logarithm() {
         let axis = Axis::fit([0.3, 45.0, f64::NAN, -1.0], true);
         assert_eq!((axis.lo, axis.hi), (0.1, 100.0));
-        assert!((axis.fraction(1.0).unwrap() - 1.0 / 3.0).abs() < 1e-12);
-        assert!((axis.fraction(10.0).unwrap() - 2.0 / 3.0).abs() < 1e-12);
-        assert!((axis.fraction(0.1).unwrap()).abs() < 1e-12);
-        assert_eq!(axis.fraction(0.0), None);
-        assert_eq!(axis.fraction(f64::INFINITY), None);
+        assert!((axis.drawn(10.0).unwrap() - 1.0).abs() < 1e-12);
+        assert!((axis.value(axis.drawn(0.3).unwrap()) - 0.3).abs() < 1e-12);
+        assert_eq!(axis.drawn(0.0), None);
+        assert_eq!(axis.drawn(f64::INFINITY), None);
         let ticks = axis.ticks();
         assert_eq!(ticks.first(), Some(&0.1));
         assert_eq!(ticks.last(), Some(&100.0));
@@ -404,7 +407,7 @@ mod tests {
         let axis = Axis::fit([0.12, 0.34], false);
         assert_eq!(axis.lo, 0.0);
         assert!((axis.hi - 0.4).abs() < 1e-12, "{}", axis.hi);
-        assert!((axis.fraction(0.1).unwrap() - 0.25).abs() < 1e-12);
+        assert_eq!(axis.drawn(0.1), Some(0.1));
         let ticks = axis.ticks();
         assert_eq!(ticks.len(), 5);
         assert!((ticks[1] - 0.1).abs() < 1e-12 && (ticks[4] - 0.4).abs() < 1e-12);
@@ -420,31 +423,6 @@ mod tests {
     }
 
     #[test]
-    fn plot_rect_maps_the_axis_corners_to_its_pixel_corners_with_y_up() {
-        let rect = PlotRect {
-            left: 100,
-            top: 20,
-            right: 400,
-            bottom: 220,
-        };
-        let x = Axis {
-            lo: 1.0,
-            hi: 1000.0,
-            log: true,
-        };
-        let y = Axis {
-            lo: 0.0,
-            hi: 0.5,
-            log: false,
-        };
-        assert_eq!(rect.pixel_of(&x, &y, (1.0, 0.0)), Some((100, 220)));
-        assert_eq!(rect.pixel_of(&x, &y, (1000.0, 0.5)), Some((400, 20)));
-        // 10 s is a third of the way along three decades; 0.25 halfway up.
-        assert_eq!(rect.pixel_of(&x, &y, (10.0, 0.25)), Some((200, 120)));
-        assert_eq!(rect.pixel_of(&x, &y, (-1.0, 0.25)), None);
-    }
-
-    #[test]
     fn tick_labels_use_only_the_decimals_they_need() {
         assert_eq!(tick_label(100.0), "100");
         assert_eq!(tick_label(0.5), "0.5");
@@ -453,12 +431,13 @@ mod tests {
     }
 
     #[test]
-    fn render_draws_series_in_their_colour_inside_the_panel() {
+    fn render_draws_series_in_their_colour_rising_inside_the_panel() {
         let chart = Chart {
             title: "t".into(),
             x_label: "seconds".into(),
             y_label: "MAD".into(),
             x_log: true,
+            y_log: false,
             panels: vec![Panel {
                 title: "roughness".into(),
                 series: vec![Series {
@@ -480,26 +459,60 @@ mod tests {
             }],
             columns: 2,
         };
-        let img = render(&chart);
+        let img = render(&chart).expect("drawn");
         assert_eq!(
             (img.width(), img.height()),
             (2 * PANEL_W, TITLE_H + PANEL_H)
         );
-        let red = |x: u32, y: u32| *img.get_pixel(x, y) == Rgb([200, 0, 0]);
-        // Both markers lie where the axis mapping puts them.
-        let rect = PlotRect {
-            left: MARGIN_L,
-            top: TITLE_H as i64 + MARGIN_T,
-            right: PANEL_W as i64 - MARGIN_R,
-            bottom: TITLE_H as i64 + PANEL_H as i64 - MARGIN_B,
+        let red: Vec<(u32, u32)> = img
+            .enumerate_pixels()
+            .filter(|(_, _, p)| p.0 == [200, 0, 0])
+            .map(|(x, y, _)| (x, y))
+            .collect();
+        let in_panel: Vec<_> = red.iter().filter(|p| p.0 < PANEL_W).collect();
+        let in_legend = red.len() - in_panel.len();
+        assert!(
+            in_panel.len() > 50,
+            "{} red pixels in the panel",
+            in_panel.len()
+        );
+        assert!(in_legend > 50, "{in_legend} red pixels in the legend");
+        assert!(in_panel
+            .iter()
+            .all(|p| p.1 > TITLE_H && p.1 < TITLE_H + PANEL_H));
+        // The line rises: its leftmost pixels lie lower than its rightmost.
+        let left = in_panel.iter().min_by_key(|p| p.0).expect("red");
+        let right = in_panel.iter().max_by_key(|p| p.0).expect("red");
+        assert!(right.0 > left.0 + 100, "{left:?} {right:?}");
+        assert!(left.1 > right.1 + 40, "{left:?} {right:?}");
+        // Nothing red in the panel's top-right corner.
+        assert!(!in_panel
+            .iter()
+            .any(|p| p.0 > PANEL_W - 20 && p.1 < TITLE_H + 30));
+    }
+
+    #[test]
+    fn a_log_y_axis_with_nothing_positive_still_draws() {
+        let chart = Chart {
+            title: "loss".into(),
+            x_label: "step".into(),
+            y_label: "loss".into(),
+            x_log: false,
+            y_log: true,
+            panels: vec![Panel {
+                title: "basecolor".into(),
+                series: vec![Series {
+                    name: "train".into(),
+                    colour: [40, 90, 220],
+                    points: vec![Point {
+                        x: 0.0,
+                        y: 0.0,
+                        label: String::new(),
+                    }],
+                }],
+            }],
+            columns: 2,
         };
-        let x = Axis::fit([1.0, 9.0], true);
-        let y = Axis::fit([0.1, 0.2], false);
-        let (px, py) = rect.pixel_of(&x, &y, (1.0, 0.1)).unwrap();
-        assert!(red(px as u32, py as u32));
-        let (qx, qy) = rect.pixel_of(&x, &y, (9.0, 0.2)).unwrap();
-        assert!(red(qx as u32, qy as u32));
-        // Nothing red far from the line, e.g. the panel's top-right corner.
-        assert!(!red((rect.right - 2) as u32, (rect.top + 2) as u32));
+        assert!(render(&chart).is_ok());
     }
 }

@@ -1,90 +1,68 @@
-//! A 5x7 bitmap font for labels on contact sheets and charts, so that
-//! drawing text needs no font file or rendering crate. Lowercase is drawn as uppercase;
-//! characters outside the table are drawn as a box.
+//! The one typeface of matscan's images (bench charts, loss plots, contact
+//! sheets): DejaVu Sans, embedded, so a scanner PC without fonts draws the
+//! same labels. `assets/DejaVuSans-subset.ttf` holds the printable ASCII
+//! range and a few symbols (degree, plus-minus, micro, times, dashes,
+//! minus, less- and greater-or-equal), cut from DejaVu Sans 2.37 with
+//! fonttools' `pyftsubset` (26 KB instead of 760 KB); its licence is
+//! `assets/DejaVuSans-LICENSE.txt`. Characters outside the subset draw as
+//! the font's missing-glyph box.
+//!
+//! Charts draw it through `plotters` (which rasterizes with `ab_glyph`;
+//! [`register`] hands it the font); [`draw_text`] rasterizes with
+//! `ab_glyph` directly into the contact sheet's float buffer, which is no
+//! plotters backend.
 
-/// Glyph rows, top to bottom; bit 4 is the leftmost column.
-fn glyph(c: char) -> [u8; 7] {
-    match c.to_ascii_uppercase() {
-        'A' => [0x0E, 0x11, 0x11, 0x1F, 0x11, 0x11, 0x11],
-        'B' => [0x1E, 0x11, 0x11, 0x1E, 0x11, 0x11, 0x1E],
-        'C' => [0x0E, 0x11, 0x10, 0x10, 0x10, 0x11, 0x0E],
-        'D' => [0x1E, 0x11, 0x11, 0x11, 0x11, 0x11, 0x1E],
-        'E' => [0x1F, 0x10, 0x10, 0x1E, 0x10, 0x10, 0x1F],
-        'F' => [0x1F, 0x10, 0x10, 0x1E, 0x10, 0x10, 0x10],
-        'G' => [0x0E, 0x11, 0x10, 0x17, 0x11, 0x11, 0x0F],
-        'H' => [0x11, 0x11, 0x11, 0x1F, 0x11, 0x11, 0x11],
-        'I' => [0x0E, 0x04, 0x04, 0x04, 0x04, 0x04, 0x0E],
-        'J' => [0x07, 0x02, 0x02, 0x02, 0x02, 0x12, 0x0C],
-        'K' => [0x11, 0x12, 0x14, 0x18, 0x14, 0x12, 0x11],
-        'L' => [0x10, 0x10, 0x10, 0x10, 0x10, 0x10, 0x1F],
-        'M' => [0x11, 0x1B, 0x15, 0x15, 0x11, 0x11, 0x11],
-        'N' => [0x11, 0x11, 0x19, 0x15, 0x13, 0x11, 0x11],
-        'O' => [0x0E, 0x11, 0x11, 0x11, 0x11, 0x11, 0x0E],
-        'P' => [0x1E, 0x11, 0x11, 0x1E, 0x10, 0x10, 0x10],
-        'Q' => [0x0E, 0x11, 0x11, 0x11, 0x15, 0x12, 0x0D],
-        'R' => [0x1E, 0x11, 0x11, 0x1E, 0x14, 0x12, 0x11],
-        'S' => [0x0F, 0x10, 0x10, 0x0E, 0x01, 0x01, 0x1E],
-        'T' => [0x1F, 0x04, 0x04, 0x04, 0x04, 0x04, 0x04],
-        'U' => [0x11, 0x11, 0x11, 0x11, 0x11, 0x11, 0x0E],
-        'V' => [0x11, 0x11, 0x11, 0x11, 0x11, 0x0A, 0x04],
-        'W' => [0x11, 0x11, 0x11, 0x15, 0x15, 0x15, 0x0A],
-        'X' => [0x11, 0x11, 0x0A, 0x04, 0x0A, 0x11, 0x11],
-        'Y' => [0x11, 0x11, 0x0A, 0x04, 0x04, 0x04, 0x04],
-        'Z' => [0x1F, 0x01, 0x02, 0x04, 0x08, 0x10, 0x1F],
-        '0' => [0x0E, 0x11, 0x13, 0x15, 0x19, 0x11, 0x0E],
-        '1' => [0x04, 0x0C, 0x04, 0x04, 0x04, 0x04, 0x0E],
-        '2' => [0x0E, 0x11, 0x01, 0x02, 0x04, 0x08, 0x1F],
-        '3' => [0x1F, 0x02, 0x04, 0x02, 0x01, 0x11, 0x0E],
-        '4' => [0x02, 0x06, 0x0A, 0x12, 0x1F, 0x02, 0x02],
-        '5' => [0x1F, 0x10, 0x1E, 0x01, 0x01, 0x11, 0x0E],
-        '6' => [0x06, 0x08, 0x10, 0x1E, 0x11, 0x11, 0x0E],
-        '7' => [0x1F, 0x01, 0x02, 0x04, 0x08, 0x08, 0x08],
-        '8' => [0x0E, 0x11, 0x11, 0x0E, 0x11, 0x11, 0x0E],
-        '9' => [0x0E, 0x11, 0x11, 0x0F, 0x01, 0x02, 0x0C],
-        '_' => [0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x1F],
-        '-' => [0x00, 0x00, 0x00, 0x1F, 0x00, 0x00, 0x00],
-        '.' => [0x00, 0x00, 0x00, 0x00, 0x00, 0x0C, 0x0C],
-        ':' => [0x00, 0x0C, 0x0C, 0x00, 0x0C, 0x0C, 0x00],
-        '/' => [0x00, 0x01, 0x02, 0x04, 0x08, 0x10, 0x00],
-        '=' => [0x00, 0x00, 0x1F, 0x00, 0x1F, 0x00, 0x00],
-        '(' => [0x02, 0x04, 0x08, 0x08, 0x08, 0x04, 0x02],
-        ')' => [0x08, 0x04, 0x02, 0x02, 0x02, 0x04, 0x08],
-        ',' => [0x00, 0x00, 0x00, 0x00, 0x0C, 0x04, 0x08],
-        '+' => [0x00, 0x04, 0x04, 0x1F, 0x04, 0x04, 0x00],
-        '%' => [0x18, 0x19, 0x02, 0x04, 0x08, 0x13, 0x03],
-        ' ' => [0x00; 7],
-        _ => [0x1F, 0x11, 0x11, 0x11, 0x11, 0x11, 0x1F],
-    }
+use ab_glyph::{point, Font, FontRef, PxScale, ScaleFont};
+use std::sync::OnceLock;
+
+static FONT_BYTES: &[u8] = include_bytes!("../../assets/DejaVuSans-subset.ttf");
+
+/// The family name charts ask plotters for.
+pub const FAMILY: &str = "sans-serif";
+
+fn font() -> &'static FontRef<'static> {
+    static FONT: OnceLock<FontRef<'static>> = OnceLock::new();
+    FONT.get_or_init(|| {
+        // The file is part of the binary; the tests below parse it.
+        FontRef::try_from_slice(FONT_BYTES).expect("the embedded font is valid TrueType")
+    })
 }
 
-pub const GLYPH_W: u32 = 5;
-pub const GLYPH_H: u32 = 7;
-/// Horizontal advance per character at scale 1 (glyph plus one column gap).
-pub const ADVANCE: u32 = GLYPH_W + 1;
+/// Makes the font plotters' [`FAMILY`] (once per process).
+pub fn register() {
+    static REGISTERED: OnceLock<()> = OnceLock::new();
+    REGISTERED.get_or_init(|| {
+        // Only fails on bytes that are no font, which the tests rule out.
+        let _ =
+            plotters::style::register_font(FAMILY, plotters::style::FontStyle::Normal, FONT_BYTES);
+    });
+}
 
-/// Calls `put(x, y)` for every pixel of `text` drawn at `scale` with its
-/// top-left corner at (`x`, `y`); the caller clips and colours, so any
-/// pixel buffer can take text.
-pub fn for_each_pixel(x: u32, y: u32, scale: u32, text: &str, mut put: impl FnMut(u32, u32)) {
-    for (k, c) in text.chars().enumerate() {
-        let gx = x + k as u32 * ADVANCE * scale;
-        for (row, bits) in glyph(c).iter().enumerate() {
-            for col in 0..GLYPH_W {
-                if bits & (0x10 >> col) == 0 {
-                    continue;
-                }
-                for sy in 0..scale {
-                    for sx in 0..scale {
-                        put(gx + col * scale + sx, y + row as u32 * scale + sy);
-                    }
-                }
-            }
+/// Height of one line of text at `px` pixels (ascent plus descent).
+pub fn line_height(px: f32) -> u32 {
+    let scaled = font().as_scaled(PxScale::from(px));
+    (scaled.ascent() - scaled.descent()).ceil() as u32
+}
+
+/// Width in pixels of `text` at `px` pixels, kerning included.
+pub fn text_width(text: &str, px: f32) -> u32 {
+    let scaled = font().as_scaled(PxScale::from(px));
+    let mut width = 0.0f32;
+    let mut previous = None;
+    for c in text.chars() {
+        let id = scaled.glyph_id(c);
+        if let Some(p) = previous {
+            width += scaled.kern(p, id);
         }
+        width += scaled.h_advance(id);
+        previous = Some(id);
     }
+    width.ceil() as u32
 }
 
-/// Draws `text` with its top-left corner at (`x`, `y`) into an RGB float buffer
-/// of `width` x `height`, clipping at the edges.
+/// Draws `text` at `px` pixels with the top of its line at (`x`, `y`) into
+/// an RGB float buffer of `width` x `height`, blending `color` by the
+/// glyphs' coverage and clipping at the edges.
 #[allow(clippy::too_many_arguments)]
 pub fn draw_text(
     buf: &mut [f32],
@@ -92,21 +70,43 @@ pub fn draw_text(
     height: u32,
     x: u32,
     y: u32,
-    scale: u32,
+    px: f32,
     color: [f32; 3],
     text: &str,
 ) {
-    for_each_pixel(x, y, scale, text, |px, py| {
-        if px < width && py < height {
-            let i = (py as usize * width as usize + px as usize) * 3;
-            buf[i..i + 3].copy_from_slice(&color);
+    let font = font();
+    let scale = PxScale::from(px);
+    let scaled = font.as_scaled(scale);
+    let baseline = y as f32 + scaled.ascent();
+    let mut caret = x as f32;
+    let mut previous = None;
+    for c in text.chars() {
+        let id = scaled.glyph_id(c);
+        if let Some(p) = previous {
+            caret += scaled.kern(p, id);
         }
-    });
-}
-
-/// Width in pixels of `text` drawn at `scale`.
-pub fn text_width(text: &str, scale: u32) -> u32 {
-    text.chars().count() as u32 * ADVANCE * scale
+        let glyph = id.with_scale_and_position(scale, point(caret, baseline));
+        caret += scaled.h_advance(id);
+        previous = Some(id);
+        let Some(outline) = font.outline_glyph(glyph) else {
+            continue;
+        };
+        let bounds = outline.px_bounds();
+        outline.draw(|gx, gy, coverage| {
+            let (px, py) = (
+                bounds.min.x as i64 + i64::from(gx),
+                bounds.min.y as i64 + i64::from(gy),
+            );
+            if px < 0 || py < 0 || px >= i64::from(width) || py >= i64::from(height) {
+                return;
+            }
+            let i = (py as usize * width as usize + px as usize) * 3;
+            let a = coverage.clamp(0.0, 1.0);
+            for (channel, c) in buf[i..i + 3].iter_mut().zip(color) {
+                *channel = *channel * (1.0 - a) + c * a;
+            }
+        });
+    }
 }
 
 #[cfg(test)]
@@ -114,22 +114,46 @@ mod tests {
     use super::*;
 
     #[test]
-    fn draws_letter_pixels_inside_its_cell_only() {
-        let (w, h) = (12, 9);
-        let mut buf = vec![0f32; (w * h * 3) as usize];
-        draw_text(&mut buf, w, h, 1, 1, 1, [1.0, 0.0, 0.0], "I");
-        // The top bar of I spans columns 1..4 of the glyph (0x0E).
-        let lit = |x: u32, y: u32| buf[((y * w + x) * 3) as usize] == 1.0;
-        assert!(lit(2, 1) && lit(3, 1) && lit(4, 1));
-        assert!(!lit(1, 1) && !lit(5, 1));
-        // Nothing drawn outside the 5x7 cell.
-        assert!((0..w).all(|x| !lit(x, 0) && !lit(x, 8)));
+    fn the_embedded_font_parses_and_has_the_ascii_glyphs() {
+        let font = FontRef::try_from_slice(FONT_BYTES).expect("valid font");
+        for c in ' '..='~' {
+            assert_ne!(font.glyph_id(c).0, 0, "no glyph for {c:?}");
+        }
+        assert!(plotters::style::register_font(
+            FAMILY,
+            plotters::style::FontStyle::Normal,
+            FONT_BYTES
+        )
+        .is_ok());
     }
 
     #[test]
-    fn clips_text_running_past_the_edge() {
-        let mut buf = vec![0f32; 4 * 4 * 3];
-        draw_text(&mut buf, 4, 4, 2, 2, 2, [0.5, 0.5, 0.5], "WW");
-        assert!(buf.contains(&0.5));
+    fn text_is_drawn_inside_its_line_and_grows_with_its_length() {
+        let (w, h) = (80, 24);
+        let mut buf = vec![0f32; (w * h * 3) as usize];
+        draw_text(&mut buf, w, h, 2, 2, 14.0, [1.0, 0.0, 0.0], "Ag");
+        let red = |x: u32, y: u32| buf[((y * w + x) * 3) as usize] > 0.5;
+        let lit: Vec<(u32, u32)> = (0..h)
+            .flat_map(|y| (0..w).map(move |x| (x, y)))
+            .filter(|&(x, y)| red(x, y))
+            .collect();
+        assert!(!lit.is_empty());
+        let line = line_height(14.0);
+        assert!(lit.iter().all(|&(x, y)| y >= 2 && y < 2 + line && x >= 2));
+        let right = lit.iter().map(|p| p.0).max().unwrap_or(0);
+        assert!(right <= 2 + text_width("Ag", 14.0), "{right}");
+        assert!(text_width("Ag Ag", 14.0) > text_width("Ag", 14.0) + 10);
+        // Nothing but red drawn: green and blue untouched.
+        assert!(buf.chunks(3).all(|c| c[1] == 0.0 && c[2] == 0.0));
+    }
+
+    #[test]
+    fn text_running_past_the_edge_is_clipped() {
+        let (w, h) = (8u32, 20u32);
+        let mut buf = vec![0f32; (w * h * 3) as usize];
+        draw_text(&mut buf, w, h, 3, 2, 14.0, [0.5, 0.5, 0.5], "WWW");
+        assert!(buf.iter().any(|&v| v > 0.0));
+        // The last column is reached: the text runs on past it.
+        assert!((0..h).any(|y| buf[((y * w + w - 1) * 3) as usize] > 0.0));
     }
 }

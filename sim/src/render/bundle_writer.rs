@@ -24,12 +24,13 @@
 //! a direct view of the sun through a mirror could reach); truth is float.
 
 use super::capture::{CaptureSpec, RenderOptions, Renderer, DEFAULT_MAX_DEPTH, DEFAULT_SAMPLES};
-use super::drowned::{assess, DrownAssessment};
+use super::drowned::{assess, DrownAssessment, LitImage};
 use super::error::SimError;
 use super::truth::TruthMaps;
-use crate::scene::rig::{rig_to_manifest_lights, DROWNED_THRESHOLD};
+use crate::scene::rig::rig_to_manifest_lights;
 use crate::scene::{EnvSource, RigPosition, Scene};
 use glam::Vec3;
+use matscan_calib::bad_light::THESIS_THRESHOLD;
 use matscan_scan::bundle::{BundleWriter, TruthMap};
 use matscan_scan::capture_list::{position_captures, CaptureKind, UNIFORM_LEVEL};
 use matscan_scan::image_io::Precision;
@@ -152,18 +153,17 @@ fn write_bundle(scene: &Scene, opts: &SimOptions, out_dir: &Path) -> Result<Bund
             None
         };
 
-        let lit_light_only: Vec<&RgbRaster> = planned
+        let lit_images: Vec<LitImage<'_>> = planned
             .iter()
             .zip(&images.light_only)
             .filter(|(p, _)| p.lit)
-            .map(|(_, l)| l)
+            .map(|(p, light_only)| LitImage {
+                capture: &p.spec.name,
+                light: p.spec.lights.first().map_or("", String::as_str),
+                light_only,
+            })
             .collect();
-        let assessment = assess(
-            &lit_light_only,
-            &images.ambient,
-            &truth.mask,
-            DROWNED_THRESHOLD,
-        );
+        let assessment = assess(name, &lit_images, &images.ambient, &truth.mask);
         report.push((name.to_string(), assessment, images.dropped_samples));
         positions.push(Position {
             name: name.to_string(),
@@ -311,12 +311,27 @@ fn scene_toml(
         toml_float(scene.environment.rotation)
     );
     let _ = writeln!(s, "checker_periods_px = [{small}, {large}]");
-    let _ = writeln!(s, "drowned_threshold = {}", toml_float(DROWNED_THRESHOLD));
+    let threshold = report
+        .first()
+        .map_or(THESIS_THRESHOLD, |(_, a, _)| a.verdict.threshold);
+    let _ = writeln!(s, "drowned_threshold = {}", toml_float(threshold));
     for (name, a, dropped) in report {
         let _ = writeln!(s, "\n[[position]]");
         let _ = writeln!(s, "name = {}", toml_string(name));
-        let _ = writeln!(s, "drowned = {}", a.drowned);
-        let _ = writeln!(s, "max_light_difference = {}", toml_float(a.max_difference));
+        let _ = writeln!(s, "drowned = {}", a.drowned());
+        let differences: Vec<String> = a
+            .verdict
+            .captures
+            .iter()
+            .map(|c| {
+                format!(
+                    "{} = {}",
+                    toml_string(&c.capture),
+                    toml_float(c.max_difference)
+                )
+            })
+            .collect();
+        let _ = writeln!(s, "max_light_difference = {{ {} }}", differences.join(", "));
         if let Some(r) = a.light_to_ambient {
             let _ = writeln!(s, "light_to_ambient = {}", toml_float(r));
         }

@@ -53,10 +53,9 @@
 //! (camera, flashes, projector, backlight) about the origin by up to +-36
 //! degrees about the x and y axes relative to `p0`.
 //!
-//! Drowned positions (thesis 3.1.6): a position whose lit captures differ
-//! from its ambient one by at most [`DROWNED_THRESHOLD`] (maximum over the
-//! image, on the exposure-scaled photos) is drowned by the environment; the
-//! renderer measures this, since only the renders show it.
+//! Drowned positions (thesis 3.1.6) are judged after rendering, by calib's
+//! bad-light rule (`crate::render::drowned`), since only the renders show
+//! them.
 
 use super::color::hsv_to_rgb;
 use super::model::{Backlight, PointLight, Projector, Rig, RigPosition};
@@ -71,9 +70,6 @@ pub const FOCAL_LENGTHS_MM: [f64; 6] = [20.0, 30.0, 30.99, 40.0, 50.0, 60.0];
 pub const SENSOR_WIDTH_MM: f64 = 36.0;
 /// Largest rotation of a further position about x and about y, degrees.
 pub const POSITION_ROTATION_DEG: f64 = 36.0;
-/// Thesis 3.1.6: a position is drowned when no lit capture differs from the
-/// ambient one by more than this.
-pub const DROWNED_THRESHOLD: f32 = 0.1;
 /// Radiance of a white diffuse surface at the origin under flash0 before the
 /// random increments.
 pub const FLASH_WHITE_RADIANCE: f32 = 1.5;

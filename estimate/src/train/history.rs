@@ -1,18 +1,12 @@
-//! The loss history: `loss.csv` (one row per logging interval, appended)
-//! and `loss.png`, a line plot drawn with the `image` crate alone.
+//! The loss history: `loss.csv`, one row per logging interval, appended,
+//! and cut back to the restored step when a run resumes from a checkpoint.
 //!
-//! The plot has a log10 loss axis (losses fall over decades), the training
-//! loss in blue and the test loss in red, faint horizontal lines at every
-//! decade and no text (no font is linked into the library; the CSV carries
-//! the numbers). It is redrawn from the CSV, so a resumed run plots its
-//! whole history.
-//!
-//! Out of scope: computing the losses (see `loss`).
+//! Out of scope: computing the losses (see `loss`) and drawing them: the
+//! `matscan train` command redraws `loss.png` from this file after every
+//! row (`matscan_evaluate::plot::loss`), so the library links no plotting.
 
 use super::checkpoint::write_atomic;
 use super::error::TrainError;
-use image::{ImageFormat, Rgb, RgbImage};
-use matscan_scan::draw::line;
 use std::io::Write;
 use std::path::Path;
 
@@ -106,84 +100,6 @@ pub fn append(path: &Path, row: &Row) -> Result<(), TrainError> {
         writeln!(file, "{CSV_HEADER}").map_err(io)?;
     }
     writeln!(file, "{}", row.line()).map_err(io)
-}
-
-const W: u32 = 800;
-const H: u32 = 450;
-const MARGIN: i64 = 20;
-
-/// Draws `rows` into a PNG at `path` (atomically).
-pub fn draw(rows: &[Row], path: &Path) -> Result<(), TrainError> {
-    let mut img = RgbImage::from_pixel(W, H, Rgb([255, 255, 255]));
-    let values = rows
-        .iter()
-        .flat_map(|r| std::iter::once(r.train).chain(r.test))
-        .filter(|v| v.is_finite() && *v > 0.0);
-    let (lo, hi) = values.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
-        (lo.min(v.log10()), hi.max(v.log10()))
-    });
-    let max_step = rows.iter().map(|r| r.step).max().unwrap_or(1).max(1) as f64;
-    let (lo, hi) = if lo.is_finite() && hi > lo {
-        (lo.floor(), hi.ceil())
-    } else {
-        (-3.0, 0.0)
-    };
-    let (pw, ph) = (
-        (W as i64 - 2 * MARGIN) as f64,
-        (H as i64 - 2 * MARGIN) as f64,
-    );
-    let to_xy = |step: usize, v: f64| -> (i64, i64) {
-        let x = MARGIN + (step as f64 / max_step * pw).round() as i64;
-        let y = MARGIN + ((hi - v.max(1e-12).log10()) / (hi - lo) * ph).round() as i64;
-        (x, y)
-    };
-    // Decade lines and axes.
-    let mut decade = lo;
-    while decade <= hi {
-        let y = MARGIN + ((hi - decade) / (hi - lo) * ph).round() as i64;
-        line(
-            &mut img,
-            (MARGIN, y),
-            (W as i64 - MARGIN, y),
-            Rgb([225, 225, 225]),
-        );
-        decade += 1.0;
-    }
-    let (x_axis, y_axis) = (H as i64 - MARGIN, MARGIN);
-    line(
-        &mut img,
-        (MARGIN, x_axis),
-        (W as i64 - MARGIN, x_axis),
-        Rgb([0, 0, 0]),
-    );
-    line(&mut img, (y_axis, MARGIN), (y_axis, x_axis), Rgb([0, 0, 0]));
-    let mut draw_series = |points: Vec<(i64, i64)>, colour: Rgb<u8>| {
-        for pair in points.windows(2) {
-            line(&mut img, pair[0], pair[1], colour);
-        }
-    };
-    draw_series(
-        rows.iter()
-            .filter(|r| r.train.is_finite() && r.train > 0.0)
-            .map(|r| to_xy(r.step, r.train))
-            .collect(),
-        Rgb([40, 90, 220]),
-    );
-    draw_series(
-        rows.iter()
-            .filter_map(|r| {
-                r.test
-                    .filter(|t| t.is_finite() && *t > 0.0)
-                    .map(|t| (r.step, t))
-            })
-            .map(|(s, t)| to_xy(s, t))
-            .collect(),
-        Rgb([220, 40, 40]),
-    );
-    let mut bytes = std::io::Cursor::new(Vec::new());
-    img.write_to(&mut bytes, ImageFormat::Png)
-        .map_err(|e| TrainError::Plot(e.to_string()))?;
-    write_atomic(path, bytes.get_ref())
 }
 
 #[cfg(test)]
