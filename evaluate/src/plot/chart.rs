@@ -21,8 +21,8 @@ use super::font;
 use anyhow::{anyhow, Context, Result};
 use image::{ImageFormat, RgbImage};
 use plotters::coord::ranged1d::{KeyPointHint, NoDefaultFormatting, Ranged, ValueFormatter};
-use std::ops::Range;
 use plotters::prelude::*;
+use std::ops::Range;
 use std::path::Path;
 
 /// One axis's value range and scale.
