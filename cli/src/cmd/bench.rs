@@ -53,7 +53,8 @@ pub struct BenchArgs {
     #[arg(long, default_value_t = bench::DEFAULT_POSITIONS)]
     pub positions: usize,
     /// Geometry of the rendered scenes: sphere, torus, superquadric, blob,
-    /// leaves or random (torus: a family the shipped networks never saw).
+    /// leaves, vase, box, rock, figurine or random (one of the first five;
+    /// torus and the last four: families the shipped networks never saw).
     #[arg(long, default_value = "random")]
     pub geometry: String,
     /// Seed of the first scene.

@@ -41,7 +41,8 @@ pub struct DemoArgs {
     /// sweep-subsurface, sweep-basecolor, sweep-roughness.
     #[arg(long, default_value = "2mat")]
     pub kind: String,
-    /// Geometry: sphere, torus, superquadric, blob, leaves or random.
+    /// Geometry: sphere, torus, superquadric, blob, leaves, vase, box, rock,
+    /// figurine or random (one of the first five).
     #[arg(long, default_value = "random")]
     pub geometry: String,
     /// Photo width and height in pixels.

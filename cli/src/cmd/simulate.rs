@@ -19,8 +19,9 @@ pub struct SceneArgs {
     /// sweep-subsurface, sweep-basecolor, sweep-roughness.
     #[arg(long, default_value = "2mat")]
     pub kind: String,
-    /// Geometry: sphere, torus, superquadric, blob, leaves, random, or a
-    /// path to a PLY or OBJ mesh.
+    /// Geometry: sphere, torus, superquadric, blob, leaves, vase, box, rock,
+    /// figurine, random (one of the first five), or a path to a PLY or OBJ
+    /// mesh.
     #[arg(long, default_value = "random")]
     pub geometry: String,
     /// Image width and height in pixels.

@@ -75,7 +75,7 @@ pub fn generate(options: &SceneOptions) -> Scene {
             let kind = match source {
                 GeometrySource::Kind(k) => *k,
                 _ => {
-                    let all = GeometryKind::ALL;
+                    let all = GeometryKind::PICKED;
                     all[stream(seed, Stream::Pick).gen_range(0..all.len())]
                 }
             };
