@@ -21,6 +21,32 @@
 //! as binary little endian with normals and `s t` coordinates when present,
 //! OBJ as text with exact (shortest round-trip) decimal numbers.
 //!
+//! Both parsers are our own: the two crates tried in their place did not
+//! fit. Measured with `examples/mesh_load_bench.rs` (the 524 172-triangle
+//! cube-sphere with normals and uvs; each crate in turn behind
+//! `read_ply`/`read_obj`, median on-CPU ms of 5 reads, 3 interleaved
+//! rounds on a loaded 2-core machine):
+//!
+//! | file                 | ours    | crate                           |
+//! |----------------------|---------|---------------------------------|
+//! | binary PLY, 15.3 MB  | 58-62   | ply-rs-bw 4.0.1: 96-101         |
+//! | ASCII PLY, 34.6 MB   | 194-251 | ply-rs-bw 4.0.1: 390-522        |
+//! | OBJ, 57.4 MB         | 495-617 | tobj 4.0.5: 491-634, mesh wrong |
+//!
+//! - ply-rs-bw reads 1.6x (binary) to 2x (ASCII, a PEG parse per line)
+//!   slower, and keeping this contract's messages took 582 lines of glue
+//!   for the 596 it replaced: its errors name a line but neither the
+//!   property nor the token, its header maps silently merge names declared
+//!   twice, its ASCII body must hold one element per line and no `nan`
+//!   token, and it needs Rust 1.87 (the workspace says 1.85).
+//! - tobj cannot keep this contract: it numbers vertices by first use and
+//!   drops unused ones (our own OBJ no longer reads back exactly), splits
+//!   the mesh at `o`/`g`, gives a corner without `vt`/`vn` the previous
+//!   corner's (or leaves the attribute arrays short), makes `l 1 2 3` a
+//!   triangle, accepts NaN, fails on `\` continuations, trailing
+//!   comments, one-value `vt` and non-UTF-8 comments, and its errors carry
+//!   no line number. It was no faster.
+//!
 //! Boundaries: files only; the mesh type and its checks live in
 //! [`crate::mesh`].
 

@@ -402,3 +402,65 @@ fn read_mesh_reports_missing_files_and_unknown_extensions() {
         "{err}"
     );
 }
+
+/// Binary little-endian PLY of one triangle, by hand, so that values the
+/// writer refuses can be put in.
+fn little_endian_triangle(positions: [[f32; 3]; 3], face: [u32; 3]) -> Vec<u8> {
+    let mut b = b"ply\nformat binary_little_endian 1.0\nelement vertex 3\n\
+        property float x\nproperty float y\nproperty float z\n\
+        element face 1\nproperty list uchar uint vertex_indices\nend_header\n"
+        .to_vec();
+    for x in positions.iter().flatten() {
+        b.extend_from_slice(&x.to_le_bytes());
+    }
+    b.push(3);
+    for i in face {
+        b.extend_from_slice(&i.to_le_bytes());
+    }
+    b
+}
+
+#[test]
+fn empty_truncated_nan_and_out_of_range_inputs_are_errors() {
+    let tri = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+    let good = little_endian_triangle(tri, [0, 1, 2]);
+    assert_eq!(
+        read_ply(good.as_slice(), Path::new("t.ply"))
+            .unwrap()
+            .triangles,
+        vec![[0, 1, 2]]
+    );
+
+    let err = message(read_ply(&b""[..], Path::new("t.ply")).unwrap_err());
+    assert!(err.contains("t.ply") && err.contains("end_header"), "{err}");
+    let err = message(read_obj(&b""[..], Path::new("t.obj")).unwrap_err());
+    assert!(err.contains("t.obj") && err.contains("no faces"), "{err}");
+
+    // Cut in the face list, in the face count, in the vertices, after the
+    // header, and in the header.
+    for cut in [1, 4, 13, 49] {
+        let err = message(read_ply(&good[..good.len() - cut], Path::new("t.ply")).unwrap_err());
+        assert!(
+            err.contains("t.ply") && err.contains("unexpected end of file"),
+            "{cut}: {err}"
+        );
+    }
+    let err = message(read_ply(&good[..90], Path::new("t.ply")).unwrap_err());
+    assert!(err.contains("end_header"), "{err}");
+
+    let mut nan = tri;
+    nan[1][2] = f32::NAN;
+    let doc = little_endian_triangle(nan, [0, 1, 2]);
+    let err = message(read_ply(doc.as_slice(), Path::new("t.ply")).unwrap_err());
+    assert!(
+        err.contains("element vertex 1") && err.contains("finite coordinates"),
+        "{err}"
+    );
+
+    let doc = little_endian_triangle(tri, [0, 3, 2]);
+    let err = message(read_ply(doc.as_slice(), Path::new("t.ply")).unwrap_err());
+    assert!(
+        err.contains("element face 0") && err.contains("vertex index 3 out of range"),
+        "{err}"
+    );
+}
