@@ -477,7 +477,10 @@ fn vase(rng: &mut Pcg64, segments: u32) -> Shell {
     }
     for k in 0..rim {
         let a = -std::f32::consts::FRAC_PI_2 * (1.0 - k as f32 / rim as f32);
-        meridian.push((r0 - bevel + bevel * a.cos(), bottom + bevel + bevel * a.sin()));
+        meridian.push((
+            r0 - bevel + bevel * a.cos(),
+            bottom + bevel + bevel * a.sin(),
+        ));
     }
     for k in 0..=profile {
         let t = k as f32 / profile as f32;
@@ -514,11 +517,7 @@ fn radial_surface(d: Vec3, far: f32, sdf: &impl Fn(Vec3) -> f32) -> f32 {
 fn bevelled(rng: &mut Pcg64, segments: u32) -> Shell {
     let bevel: f32 = rng.gen_range(0.025..0.07);
     let can = rng.gen_bool(0.4);
-    let half = Vec3::new(
-        0.5,
-        rng.gen_range(0.25..0.5),
-        rng.gen_range(0.25..0.5),
-    );
+    let half = Vec3::new(0.5, rng.gen_range(0.25..0.5), rng.gen_range(0.25..0.5));
     let sdf = move |p: Vec3| -> f32 {
         if can {
             let q = Vec2::new(
@@ -593,7 +592,10 @@ fn figurine(rng: &mut Pcg64, segments: u32) -> Shell {
             .map(|&(c, radius)| {
                 // Exit of the ray from the origin, which every lobe holds.
                 let b = d.dot(c);
-                let t = b + (b * b - c.length_squared() + radius * radius).max(0.0).sqrt();
+                let t = b
+                    + (b * b - c.length_squared() + radius * radius)
+                        .max(0.0)
+                        .sqrt();
                 (t / 0.5).powf(P)
             })
             .sum();
@@ -1334,20 +1336,14 @@ mod tests {
                 let face: Vec<usize> = (0..mesh.positions.len())
                     .filter(|&i| (mesh.positions[i][axis] - hi[axis]).abs() < 1e-4)
                     .collect();
-                let aligned = face
-                    .iter()
-                    .filter(|&&i| normals[i][axis] > 0.999)
-                    .count();
+                let aligned = face.iter().filter(|&&i| normals[i][axis] > 0.999).count();
                 if face.len() > 20 && aligned * 2 > face.len() {
                     flat_faces += 1;
                 }
             }
             assert!(flat_faces >= 1, "seed {seed}: no flat face");
             // Rounded edges: some normals lie between a face and its side.
-            let turned = normals
-                .iter()
-                .filter(|n| n.y > 0.3 && n.y < 0.9)
-                .count();
+            let turned = normals.iter().filter(|n| n.y > 0.3 && n.y < 0.9).count();
             assert!(turned > 0, "seed {seed}");
         }
     }
