@@ -6,15 +6,16 @@
 //! Run: `cargo run --release -p matscan-scan --example raycast_bench`.
 //! The figures go into the `//!` doc of `scan/src/bvh.rs`.
 
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use matscan_scan::bvh::{Bvh, Ray, RayCaster};
 use matscan_scan::mesh_io::{read_mesh, write_mesh};
-use matscan_scan::Mesh;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use std::time::{Duration, Instant};
 
-const RUNS: usize = 5;
+mod bench_common;
+
+use bench_common::{displaced_cube_sphere, median_pair, ms, Clock, RUNS};
 
 fn main() {
     let cells = 209; // 6 faces x 209^2 quads x 2 = 524 172 triangles
@@ -153,113 +154,8 @@ fn median(mut f: impl FnMut() -> Duration) -> Duration {
     v[RUNS / 2]
 }
 
-/// Medians of (wall, on-CPU) pairs, each sorted on its own.
-fn median_pair(mut f: impl FnMut() -> (Duration, Duration)) -> (Duration, Duration) {
-    let runs: Vec<_> = (0..RUNS).map(|_| f()).collect();
-    let mut wall: Vec<_> = runs.iter().map(|r| r.0).collect();
-    let mut cpu: Vec<_> = runs.iter().map(|r| r.1).collect();
-    wall.sort();
-    cpu.sort();
-    (wall[RUNS / 2], cpu[RUNS / 2])
-}
-
-/// Wall time plus this thread's on-CPU time (Linux `schedstat`), so that
-/// figures taken on a shared, loaded machine still say what one core does.
-/// Where `schedstat` is missing the on-CPU time is the wall time.
-struct Clock {
-    wall: Instant,
-    cpu: Option<u64>,
-}
-
-impl Clock {
-    fn start() -> Self {
-        Self {
-            wall: Instant::now(),
-            cpu: thread_cpu_ns(),
-        }
-    }
-
-    fn stop(&self) -> (Duration, Duration) {
-        let wall = self.wall.elapsed();
-        let cpu = match (self.cpu, thread_cpu_ns()) {
-            (Some(a), Some(b)) => Duration::from_nanos(b.saturating_sub(a)),
-            _ => wall,
-        };
-        (wall, cpu)
-    }
-}
-
-fn thread_cpu_ns() -> Option<u64> {
-    let s = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
-    s.split_whitespace().next()?.parse().ok()
-}
-
-fn ms(d: Duration) -> f64 {
-    d.as_secs_f64() * 1e3
-}
-
 fn mrays(n: usize, d: Duration) -> f64 {
     n as f64 / d.as_secs_f64() / 1e6
-}
-
-/// A cube with `cells` x `cells` quads per face, pushed onto the unit sphere
-/// and displaced by a few octaves of smooth noise (radius 0.85 to 1.15).
-fn displaced_cube_sphere(cells: usize) -> Mesh {
-    let mut positions = Vec::new();
-    let mut uvs = Vec::new();
-    let mut triangles = Vec::new();
-    let axes = [
-        (Vec3::X, Vec3::Y, Vec3::Z),
-        (-Vec3::X, Vec3::Z, Vec3::Y),
-        (Vec3::Y, Vec3::Z, Vec3::X),
-        (-Vec3::Y, Vec3::X, Vec3::Z),
-        (Vec3::Z, Vec3::X, Vec3::Y),
-        (-Vec3::Z, Vec3::Y, Vec3::X),
-    ];
-    let n = cells + 1;
-    for (normal, a, b) in axes {
-        let base = positions.len() as u32;
-        for j in 0..n {
-            for i in 0..n {
-                let s = i as f32 / cells as f32;
-                let t = j as f32 / cells as f32;
-                let d = (normal + a * (2.0 * s - 1.0) + b * (2.0 * t - 1.0)).normalize();
-                positions.push(d * (1.0 + displacement(d)));
-                uvs.push(Vec2::new(s, t));
-            }
-        }
-        for j in 0..cells {
-            for i in 0..cells {
-                let v = |i: usize, j: usize| base + (j * n + i) as u32;
-                triangles.push([v(i, j), v(i + 1, j), v(i + 1, j + 1)]);
-                triangles.push([v(i, j), v(i + 1, j + 1), v(i, j + 1)]);
-            }
-        }
-    }
-    let mut mesh = Mesh {
-        positions,
-        normals: None,
-        uvs: Some(uvs),
-        triangles,
-    };
-    mesh.compute_vertex_normals();
-    mesh
-}
-
-fn displacement(d: Vec3) -> f32 {
-    let mut sum = 0.0;
-    let mut freq = 3.0;
-    let mut amp = 0.08;
-    for k in 0..5 {
-        let phase = k as f32 * 1.7;
-        sum += amp
-            * (freq * d.x + phase).sin()
-            * (freq * 1.3 * d.y + 2.0 * phase).sin()
-            * (freq * 0.7 * d.z - phase).sin();
-        freq *= 2.1;
-        amp *= 0.45;
-    }
-    sum
 }
 
 /// Rays of a pinhole camera 3 units from the centre, scanline order.
