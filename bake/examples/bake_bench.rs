@@ -47,7 +47,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut times = Vec::new();
     for run in 0..runs {
         let t = Instant::now();
-        let baked = bake_maps(&bundle, &maps, &options)?;
+        let baked = bake_maps(&bundle, &maps, None, &options)?;
         let s = t.elapsed().as_secs_f64();
         let measured = baked.coverage().data.iter().filter(|&&c| c).count();
         println!(

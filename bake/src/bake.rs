@@ -1,8 +1,8 @@
 //! The baker's entry points: [`bake_maps`] (any per-position maps, e.g. a
 //! simulated scan's truth), [`bake_scan`] (a scan's `estimate/` folder)
-//! and [`bake_truth`] (a simulated scan's `truth/` folder); the
-//! `_calibrated` variants take the scan's calibration where the caller has
-//! it, so the position maps are not computed again.
+//! and [`bake_truth`] (a simulated scan's `truth/` folder). [`bake_maps`]
+//! and [`bake_bundle`] take the scan's calibration where the caller has it,
+//! so the position maps are not computed again.
 //!
 //! Steps: rasterize the UV atlas ([`crate::atlas`]), prepare each position
 //! ([`crate::views`]), fuse ([`crate::fuse`]), fill holes per parameter
@@ -49,19 +49,10 @@ impl Default for BakeOptions {
 
 /// Bakes `positions` (each position's maps in its camera image) into the
 /// UV textures of `bundle`'s mesh. Parameters no position has are left
-/// out of the result.
+/// out of the result. `calibration`, the scan's where the caller already
+/// made it, lends its per-position pixel maps (the same maps the baker
+/// would compute; positions it lacks are computed).
 pub fn bake_maps(
-    bundle: &Bundle,
-    positions: &[BakeInput],
-    options: &BakeOptions,
-) -> Result<BakedTextures, BakeError> {
-    bake_maps_calibrated(bundle, positions, None, options)
-}
-
-/// [`bake_maps`] reusing the per-position pixel maps of `calibration`,
-/// the scan's calibration where the caller already made it (the same
-/// maps the baker would compute; positions it lacks are computed).
-pub fn bake_maps_calibrated(
     bundle: &Bundle,
     positions: &[BakeInput],
     calibration: Option<&ScanCalibration>,
@@ -175,21 +166,12 @@ pub fn bake_scan(
     estimate_dir: &Path,
     options: &BakeOptions,
 ) -> Result<BakedTextures, BakeError> {
-    bake_bundle(&Bundle::open(scan_dir)?, estimate_dir, options)
+    bake_bundle(&Bundle::open(scan_dir)?, estimate_dir, None, options)
 }
 
-/// [`bake_scan`] of a bundle already open.
+/// [`bake_scan`] of a bundle already open, with its calibration where the
+/// caller has it (see [`bake_maps`]).
 pub fn bake_bundle(
-    bundle: &Bundle,
-    estimate_dir: &Path,
-    options: &BakeOptions,
-) -> Result<BakedTextures, BakeError> {
-    bake_bundle_calibrated(bundle, estimate_dir, None, options)
-}
-
-/// [`bake_bundle`] reusing `calibration`'s pixel maps (see
-/// [`bake_maps_calibrated`]).
-pub fn bake_bundle_calibrated(
     bundle: &Bundle,
     estimate_dir: &Path,
     calibration: Option<&ScanCalibration>,
@@ -210,7 +192,7 @@ pub fn bake_bundle_calibrated(
                 .into(),
         });
     }
-    bake_maps_calibrated(bundle, &positions, calibration, options)
+    bake_maps(bundle, &positions, calibration, options)
 }
 
 /// Reads every position's estimate maps from `estimate_dir`.
@@ -267,5 +249,5 @@ pub fn bake_truth(bundle: &Bundle, options: &BakeOptions) -> Result<BakedTexture
             message: "no truth maps (simulated scans only)".into(),
         });
     }
-    bake_maps(bundle, &positions, options)
+    bake_maps(bundle, &positions, None, options)
 }

@@ -31,8 +31,8 @@ pub mod textures;
 mod views;
 
 pub use bake::{
-    bake_bundle, bake_bundle_calibrated, bake_maps, bake_maps_calibrated, bake_scan, bake_truth,
-    read_estimate_maps, read_truth_maps, BakeOptions, DEFAULT_SIZE,
+    bake_bundle, bake_maps, bake_scan, bake_truth, read_estimate_maps, read_truth_maps,
+    BakeOptions, DEFAULT_SIZE,
 };
 pub use error::BakeError;
 pub use fuse::FuseOptions;

@@ -37,8 +37,7 @@ use crate::rerender::{
 };
 use anyhow::{bail, Context, Result};
 use matscan_bake::{
-    bake_maps_calibrated, bake_scan, read_textures, read_truth_maps, texture_dir, BakeOptions,
-    BakedTextures,
+    bake_maps, bake_scan, read_textures, read_truth_maps, texture_dir, BakeOptions, BakedTextures,
 };
 use matscan_calib::ScanCalibration;
 use matscan_estimate::pipeline::output::ResultFile;
@@ -109,8 +108,7 @@ pub fn true_textures(
         size: like.width(),
         ..BakeOptions::default()
     };
-    let t =
-        bake_maps_calibrated(bundle, &positions, calibration, &options).with_context(context)?;
+    let t = bake_maps(bundle, &positions, calibration, &options).with_context(context)?;
     Ok(Some(t))
 }
 

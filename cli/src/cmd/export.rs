@@ -52,7 +52,7 @@ pub fn run(args: &ExportArgs) -> Result<()> {
         size: args.size,
         ..BakeOptions::default()
     };
-    let textures = bake_bundle(&bundle, &estimate, &options)
+    let textures = bake_bundle(&bundle, &estimate, None, &options)
         .with_context(|| format!("baking {}", estimate.display()))?;
     let baked_s = started.elapsed().as_secs_f64();
     let out = args.out.clone().unwrap_or(estimate);

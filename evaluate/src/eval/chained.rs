@@ -113,8 +113,10 @@ pub(super) fn chained_configurations(
         .map(|_| Configuration::default())
         .collect();
     let lists_views = args.views.iter().any(|&count| count > 0);
+    // Every configuration estimates with these calibration options, so the
+    // one calibration serves them all.
+    let calib = EstimateOptions::default().calib;
     for (i, scan) in scans.iter().enumerate() {
-        let calib = EstimateOptions::default().calib;
         let prepared = match PreparedScan::open(scan, &calib) {
             Ok(p) => p,
             Err(e) => {

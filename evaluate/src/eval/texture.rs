@@ -38,7 +38,7 @@ use crate::rerender::{
     material_from_textures, Framing, LightName, Lighting, RenderSettings, ScanObject, Shot,
 };
 use anyhow::{Context, Result};
-use matscan_bake::{bake_bundle_calibrated, BakeOptions, BakedTextures};
+use matscan_bake::{bake_bundle, BakeOptions, BakedTextures};
 use matscan_estimate::pipeline::metrics::{error_metrics, ErrorMetrics};
 use matscan_estimate::pipeline::run::PreparedScan;
 use matscan_scan::Param;
@@ -115,7 +115,7 @@ pub fn score_scan(
         size,
         ..BakeOptions::default()
     };
-    let estimated = bake_bundle_calibrated(bundle, estimate_dir, calibration, &options)
+    let estimated = bake_bundle(bundle, estimate_dir, calibration, &options)
         .with_context(|| format!("baking the estimate of {}", scan.display()))?;
     let truth = true_textures(bundle, &estimated, calibration)?
         .with_context(|| format!("{}: no truth maps to compare with", scan.display()))?;

@@ -44,20 +44,31 @@ pub fn line_height(px: f32) -> u32 {
     (scaled.ascent() - scaled.descent()).ceil() as u32
 }
 
+/// Each glyph of `text` at `px` pixels with its pen position from the
+/// start of the line (kerning included), and the line's full advance.
+fn layout(text: &str, px: f32) -> (Vec<(ab_glyph::GlyphId, f32)>, f32) {
+    let scaled = font().as_scaled(PxScale::from(px));
+    let mut caret = 0.0f32;
+    let mut previous = None;
+    let glyphs = text
+        .chars()
+        .map(|c| {
+            let id = scaled.glyph_id(c);
+            if let Some(p) = previous {
+                caret += scaled.kern(p, id);
+            }
+            let at = caret;
+            caret += scaled.h_advance(id);
+            previous = Some(id);
+            (id, at)
+        })
+        .collect();
+    (glyphs, caret)
+}
+
 /// Width in pixels of `text` at `px` pixels, kerning included.
 pub fn text_width(text: &str, px: f32) -> u32 {
-    let scaled = font().as_scaled(PxScale::from(px));
-    let mut width = 0.0f32;
-    let mut previous = None;
-    for c in text.chars() {
-        let id = scaled.glyph_id(c);
-        if let Some(p) = previous {
-            width += scaled.kern(p, id);
-        }
-        width += scaled.h_advance(id);
-        previous = Some(id);
-    }
-    width.ceil() as u32
+    layout(text, px).1.ceil() as u32
 }
 
 /// Draws `text` at `px` pixels with the top of its line at (`x`, `y`) into
@@ -76,18 +87,9 @@ pub fn draw_text(
 ) {
     let font = font();
     let scale = PxScale::from(px);
-    let scaled = font.as_scaled(scale);
-    let baseline = y as f32 + scaled.ascent();
-    let mut caret = x as f32;
-    let mut previous = None;
-    for c in text.chars() {
-        let id = scaled.glyph_id(c);
-        if let Some(p) = previous {
-            caret += scaled.kern(p, id);
-        }
-        let glyph = id.with_scale_and_position(scale, point(caret, baseline));
-        caret += scaled.h_advance(id);
-        previous = Some(id);
+    let baseline = y as f32 + font.as_scaled(scale).ascent();
+    for (id, at) in layout(text, px).0 {
+        let glyph = id.with_scale_and_position(scale, point(x as f32 + at, baseline));
         let Some(outline) = font.outline_glyph(glyph) else {
             continue;
         };

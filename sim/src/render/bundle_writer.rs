@@ -311,10 +311,7 @@ fn scene_toml(
         toml_float(scene.environment.rotation)
     );
     let _ = writeln!(s, "checker_periods_px = [{small}, {large}]");
-    let threshold = report
-        .first()
-        .map_or(THESIS_THRESHOLD, |(_, a, _)| a.verdict.threshold);
-    let _ = writeln!(s, "drowned_threshold = {}", toml_float(threshold));
+    let _ = writeln!(s, "drowned_threshold = {}", toml_float(THESIS_THRESHOLD));
     for (name, a, dropped) in report {
         let _ = writeln!(s, "\n[[position]]");
         let _ = writeln!(s, "name = {}", toml_string(name));

@@ -45,6 +45,7 @@ pub fn assess(
     ambient: &RgbRaster,
     mask: &MaskRaster,
 ) -> DrownAssessment {
+    // The thesis's threshold (`THESIS_THRESHOLD`), as `scene.toml` states.
     let options = BadLightOptions::default();
     let captures = lit
         .iter()
@@ -61,15 +62,13 @@ pub fn assess(
             .sum()
     };
     let ambient_lum = object_luminance(ambient);
-    let light_to_ambient = (ambient_lum > 0.0)
-        .then(|| {
-            lit.iter()
-                .map(|l| (object_luminance(l.light_only) / ambient_lum) as f32)
-                .fold(None, |best: Option<f32>, r| {
-                    Some(best.map_or(r, |b| b.max(r)))
-                })
-        })
-        .flatten();
+    let light_to_ambient = if ambient_lum > 0.0 {
+        lit.iter()
+            .map(|l| (object_luminance(l.light_only) / ambient_lum) as f32)
+            .reduce(f32::max)
+    } else {
+        None
+    };
     DrownAssessment {
         verdict: BadLight {
             position: position.to_string(),

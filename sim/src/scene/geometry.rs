@@ -442,10 +442,9 @@ fn blob(rng: &mut Pcg64, segments: u32) -> Shell {
 fn revolve(nu: u32, meridian: &[(f32, f32)]) -> Shell {
     let nv = meridian.len() as u32 - 1;
     Shell::from_grid(nu, nv, |i, j| {
+        // At r = 0 every i gives (+-0, y, +-0), which welding folds into
+        // one pole vertex.
         let (r, y) = meridian[j as usize];
-        if r == 0.0 {
-            return Vec3::new(0.0, y, 0.0);
-        }
         let (sp, cp) = (TAU * (i % nu) as f32 / nu as f32).sin_cos();
         Vec3::new(r * cp, y, r * sp)
     })
