@@ -587,9 +587,27 @@ fn pathological_triangle_distributions_build_and_match_brute_force() {
         uvs: None,
         triangles,
     };
+    // A row of equal, axis-aligned triangles: every pair of neighbours has
+    // the same merge cost (ties).
+    let row = Mesh {
+        positions: (0..2000)
+            .flat_map(|i| {
+                let x = i as f32 * 1e-3;
+                [
+                    Vec3::new(x, 0.0, 0.0),
+                    Vec3::new(x + 1e-3, 0.0, 0.0),
+                    Vec3::new(x, 1.0, 0.0),
+                ]
+            })
+            .collect(),
+        normals: None,
+        uvs: None,
+        triangles: (0..2000).map(|i| [3 * i, 3 * i + 1, 3 * i + 2]).collect(),
+    };
     for (mesh, probe) in [
         (copies, Ray::new(Vec3::new(0.1, 0.1, -1.0), Vec3::Z)),
         (deep, Ray::new(Vec3::new(-1.0, 0.1, 0.1), Vec3::X)),
+        (row, Ray::new(Vec3::new(0.5, 0.2, -1.0), Vec3::Z)),
     ] {
         let bvh = Bvh::build(&mesh);
         for ray in random_rays(&mut rng, &mesh, 400) {
@@ -598,4 +616,23 @@ fn pathological_triangle_distributions_build_and_match_brute_force() {
         assert_same_hit(&mesh, &bvh, &probe);
         assert!(bvh.intersect(&probe).is_some());
     }
+}
+
+#[test]
+fn hits_closer_than_any_fixed_epsilon_are_found() {
+    // A sphere of radius 1e-5: every hit is at t < 1e-4, where a traversal
+    // with a fixed minimum distance (obvhs's own box test uses 1e-4) would
+    // cull every box.
+    let mut rng = rng(10);
+    let mesh = uv_sphere(Vec3::splat(1e-5), 1e-5, 16, 24);
+    let bvh = Bvh::build(&mesh);
+    let mut hits = 0;
+    for _ in 0..1000 {
+        let origin = Vec3::splat(1e-5) + unit_vector(&mut rng) * 3e-5;
+        let target = Vec3::splat(1e-5) + unit_vector(&mut rng) * 0.5e-5;
+        let ray = Ray::new(origin, (target - origin).normalize());
+        assert_same_hit(&mesh, &bvh, &ray);
+        hits += usize::from(bvh.intersect(&ray).is_some_and(|h| h.t < 1e-4));
+    }
+    assert!(hits > 900, "too few hits ({hits})");
 }
