@@ -4,7 +4,7 @@
 //! self-contained, and the Khronos validator finds no error (when node and
 //! npm can install it; otherwise the test says it skipped).
 
-mod support;
+use crate::support;
 
 use matscan_bake::gltf_export::{DIFFUSE_TRANSMISSION_EXT, TRANSMISSION_EXT};
 use matscan_bake::{bake_scan, export_gltf, BakeError, BakeOptions, GltfFormat};

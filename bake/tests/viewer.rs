@@ -6,7 +6,7 @@
 //! itself) are installed into the target dir on first use; without node,
 //! npm or a browser that starts, the test says it skipped.
 
-mod support;
+use crate::support;
 
 use matscan_bake::{export_gltf, GltfFormat};
 use std::path::{Path, PathBuf};

@@ -1,7 +1,7 @@
 //! `matscan bench` and `matscan eval`'s tables end to end on tiny simulated
 //! sets (32 px, one or two scenes), with the embedded weights.
 
-mod daemon_support;
+use crate::daemon_support;
 
 use daemon_support::{matscan_ok, simulate_sphere};
 use std::path::Path;

@@ -3,7 +3,7 @@
 //! `--wait --json`, and the documented exit codes 0, 4, 5 and 6
 //! (docs/daemon-protocol.md; 3 is in `cli.rs`).
 
-mod daemon_support;
+use crate::daemon_support;
 
 use daemon_support::{test_weights, TestDaemon};
 use serde_json::Value;

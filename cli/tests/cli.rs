@@ -1,7 +1,7 @@
 //! The `matscan` binary end to end: the commands a user types, on small
 //! simulated scans.
 
-mod daemon_support;
+use crate::daemon_support;
 
 use daemon_support::{matscan, simulate_sphere, stdout, weights_dir};
 use matscan_estimate::Backend;

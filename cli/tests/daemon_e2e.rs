@@ -2,7 +2,7 @@
 //! `capture-now --wait` through the client, a valid bundle in the scans
 //! folder, `status` showing it, and the busy policies.
 
-mod daemon_support;
+use crate::daemon_support;
 
 use daemon_support::TestDaemon;
 use matscan_daemon::client::{fetch_status, request_capture, CaptureNow, ClientError};

@@ -3,7 +3,7 @@
 //! line to it, as an operator's foot would press the real one. No socket
 //! request asks for these captures; `status` only watches.
 
-mod daemon_support;
+use crate::daemon_support;
 
 use daemon_support::TestDaemon;
 use matscan_daemon::client::fetch_status;

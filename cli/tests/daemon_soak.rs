@@ -3,7 +3,7 @@
 //! daemon in this process, leave no file descriptor, thread or steadily
 //! growing memory behind. The 200-capture soak is `examples/soak.rs`.
 
-mod daemon_support;
+use crate::daemon_support;
 
 use daemon_support::{test_weights, TestDaemon};
 use matscan_daemon::soak::soak;

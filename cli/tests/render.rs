@@ -2,7 +2,7 @@
 //! simulated scan (32 px, two positions) estimated with small random
 //! networks: what files they write and what they report.
 
-mod daemon_support;
+use crate::daemon_support;
 
 use daemon_support::{matscan, matscan_ok, simulate_sphere, weights_dir};
 use std::path::{Path, PathBuf};

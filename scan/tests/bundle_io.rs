@@ -2,7 +2,7 @@
 //! opening checks every referenced file, reads check sizes, and atomic
 //! writes leave nothing behind on failure.
 
-mod common;
+use crate::common;
 
 use common::{parse, VALID};
 use glam::Vec3;

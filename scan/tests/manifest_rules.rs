@@ -2,7 +2,7 @@
 //! with a message naming the file, the key path and what was expected;
 //! unknown keys only warn; valid manifests round-trip exactly.
 
-mod common;
+use crate::common;
 
 use common::{assert_rejected, edit, error_of, parse, VALID};
 use glam::{DMat4, DVec3};

@@ -2,7 +2,7 @@
 //! EXR and PNG files give errors (or, for harmless mutations, valid data),
 //! never a crash.
 
-mod common;
+use crate::common;
 
 use common::{parse, VALID};
 use matscan_scan::image_io::{

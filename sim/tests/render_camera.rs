@@ -1,7 +1,7 @@
 //! The renderer draws where the contract's camera model projects, and its
 //! images are a deterministic function of the seed.
 
-mod common;
+use crate::common;
 
 use common::*;
 use glam::{DVec2, DVec3, Vec3};

@@ -2,7 +2,7 @@
 //! projected checkerboard, the backlight shines through transmissive parts,
 //! and no material or scene scale makes a NaN or an infinity.
 
-mod common;
+use crate::common;
 
 use common::*;
 use glam::{DVec3, Vec3};

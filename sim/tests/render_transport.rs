@@ -2,7 +2,7 @@
 //! the white furnace, shadows, and the projector's pattern where the
 //! contract says it lands.
 
-mod common;
+use crate::common;
 
 use common::*;
 use glam::{DVec2, DVec3, Vec3};

@@ -6,7 +6,7 @@
 //! The same holds for a 1e6 exposure ratio between captures and for 1x1
 //! and odd image sizes.
 
-mod common;
+use crate::common;
 
 use matscan_estimate::pipeline::output::ResultFile;
 use matscan_estimate::pipeline::run::References;

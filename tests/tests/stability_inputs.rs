@@ -5,7 +5,7 @@
 //! infinity are refused with an error naming the file, so no NaN reaches a
 //! network.
 
-mod common;
+use crate::common;
 
 use burn::tensor::{Device, Tensor};
 use matscan_calib::calibrate_bundle;
