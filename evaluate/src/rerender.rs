@@ -372,6 +372,7 @@ pub fn render_shots(
     let scene = Scene {
         name: "rerender".into(),
         kind: "rerender".into(),
+        geometry: "mesh".into(),
         mesh: mesh.clone(),
         material: material.clone(),
         environment: EnvSpec {

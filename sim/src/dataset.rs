@@ -30,6 +30,7 @@
 //! Scenes render one after another, each using every core (tile-parallel
 //! inside the renderer), which keeps peak memory at one scene's worth.
 
+use crate::render::describe::{description_dir, write_description, DESCRIPTION_FILE};
 use crate::render::{write_scan_bundle, SimError, SimOptions};
 use crate::scene::{generate, GeometryKind, GeometrySource, SceneKind, SceneOptions};
 use serde::Deserialize;
@@ -58,19 +59,41 @@ pub enum DatasetError {
     },
 }
 
-/// Renders one scene into `out` and returns the seconds it took.
+/// Renders one scene into `out` and returns the seconds it took; with
+/// `describe`, also writes the scene's description beside it
+/// (`crate::render::describe`).
 pub fn render_scene(
     options: &SceneOptions,
     sim: &SimOptions,
     out: &Path,
+    describe: bool,
 ) -> Result<f64, DatasetError> {
     let start = Instant::now();
     let scene = generate(options);
-    write_scan_bundle(&scene, sim, out).map_err(|source| DatasetError::Render {
+    let failed = |source| DatasetError::Render {
         path: out.to_path_buf(),
         source,
-    })?;
+    };
+    let bundle = write_scan_bundle(&scene, sim, out).map_err(failed)?;
+    if describe {
+        write_description(&scene, sim, &bundle, out).map_err(failed)?;
+    }
     Ok(start.elapsed().as_secs_f64())
+}
+
+/// Describes the scene of a bundle rendered before (regenerating the scene
+/// from its options, which is cheap beside rendering), unless done already.
+fn describe_present(planned: &PlannedScene, out: &Path) -> Result<(), DatasetError> {
+    if description_dir(out).join(DESCRIPTION_FILE).exists() {
+        return Ok(());
+    }
+    let failed = |source| DatasetError::Render {
+        path: out.to_path_buf(),
+        source,
+    };
+    let bundle = matscan_scan::Bundle::open(out).map_err(|e| failed(SimError::Scan(e)))?;
+    write_description(&generate(&planned.scene), &planned.sim, &bundle, out).map_err(failed)?;
+    Ok(())
 }
 
 /// One scene of a data set: where it goes and how it is made.
@@ -89,11 +112,13 @@ pub struct RenderSummary {
     pub present: usize,
 }
 
-/// Renders `scenes` under `dir`, skipping those already there; `progress`
-/// hears (done, total) after each scene.
+/// Renders `scenes` under `dir`, skipping those already there (with
+/// `describe`, describing each scene, also those already rendered);
+/// `progress` hears (done, total) after each scene.
 pub fn render_scenes(
     scenes: &[PlannedScene],
     dir: &Path,
+    describe: bool,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<RenderSummary, DatasetError> {
     std::fs::create_dir_all(dir).map_err(|source| DatasetError::Io {
@@ -105,6 +130,9 @@ pub fn render_scenes(
         let out = dir.join(&planned.folder);
         if out.join(matscan_scan::bundle::MANIFEST_FILE).exists() {
             summary.present += 1;
+            if describe {
+                describe_present(planned, &out)?;
+            }
         } else {
             if let Some(parent) = out.parent() {
                 std::fs::create_dir_all(parent).map_err(|source| DatasetError::Io {
@@ -112,7 +140,7 @@ pub fn render_scenes(
                     source,
                 })?;
             }
-            render_scene(&planned.scene, &planned.sim, &out)?;
+            render_scene(&planned.scene, &planned.sim, &out, describe)?;
             summary.rendered += 1;
         }
         progress(i + 1, scenes.len());

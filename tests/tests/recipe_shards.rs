@@ -62,7 +62,7 @@ fn the_union_of_shards_is_the_whole_set_bit_for_bit() {
     let recipe = Recipe::read(&recipe_path).unwrap();
     let whole = tmp.path().join("whole");
     let all = recipe.shard(None).unwrap();
-    let summary = render_scenes(&all, &whole, &mut |_, _| {}).unwrap();
+    let summary = render_scenes(&all, &whole, false, &mut |_, _| {}).unwrap();
     assert_eq!(summary.rendered, 5);
 
     let sharded = tmp.path().join("sharded");
@@ -70,7 +70,7 @@ fn the_union_of_shards_is_the_whole_set_bit_for_bit() {
     for index in 0..2 {
         let scenes = recipe.shard(Some(Shard { index, count: 2 })).unwrap();
         counts.push(scenes.len());
-        render_scenes(&scenes, &sharded, &mut |_, _| {}).unwrap();
+        render_scenes(&scenes, &sharded, false, &mut |_, _| {}).unwrap();
     }
     assert_eq!(counts, [3, 2], "scenes 0, 2, 4 and 1, 3");
 
@@ -83,6 +83,6 @@ fn the_union_of_shards_is_the_whole_set_bit_for_bit() {
 
     // A resumed shard renders nothing again.
     let again = recipe.shard(Some(Shard { index: 0, count: 2 })).unwrap();
-    let summary = render_scenes(&again, &sharded, &mut |_, _| {}).unwrap();
+    let summary = render_scenes(&again, &sharded, false, &mut |_, _| {}).unwrap();
     assert_eq!((summary.rendered, summary.present), (0, 3));
 }

@@ -38,7 +38,7 @@ pub struct DemoArgs {
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Scene kind: multimat, multimat-noenv, 2mat, 2mat-transmission, 3mat,
-    /// sweep-subsurface, sweep-basecolor, sweep-roughness.
+    /// realworld, sweep-subsurface, sweep-basecolor, sweep-roughness.
     #[arg(long, default_value = "2mat")]
     pub kind: String,
     /// Geometry: sphere, torus, superquadric, blob, leaves, vase, box, rock,

@@ -16,7 +16,7 @@ pub struct SceneArgs {
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Scene kind: multimat, multimat-noenv, 2mat, 2mat-transmission, 3mat,
-    /// sweep-subsurface, sweep-basecolor, sweep-roughness.
+    /// realworld, sweep-subsurface, sweep-basecolor, sweep-roughness.
     #[arg(long, default_value = "2mat")]
     pub kind: String,
     /// Geometry: sphere, torus, superquadric, blob, leaves, vase, box, rock,
@@ -58,6 +58,12 @@ pub struct SimulateArgs {
     /// scheduler's array job (docs/cluster.md).
     #[arg(long, value_name = "K/N", requires = "recipe")]
     pub shard: Option<Shard>,
+    /// Also write, beside every bundle, the scene that made it as
+    /// `<bundle>.scene/` (mesh, material maps, environment map, rig and
+    /// captures in `scene.json`; docs/scene-description.md), for a second
+    /// renderer (tools/mitsuba/). Scenes already rendered get theirs too.
+    #[arg(long)]
+    pub describe: bool,
     #[command(flatten)]
     pub scene: SceneArgs,
 }
@@ -110,13 +116,15 @@ pub fn scene_options(a: &SceneArgs) -> Result<(SceneOptions, SimOptions)> {
 }
 
 /// A progress bar over a set's scenes.
-fn render_with_bar(scenes: &[PlannedScene], dir: &Path) -> Result<()> {
+fn render_with_bar(scenes: &[PlannedScene], dir: &Path, describe: bool) -> Result<()> {
     let bar = ProgressBar::new(scenes.len() as u64);
     bar.set_style(
         ProgressStyle::with_template("{bar:40} {pos}/{len} scenes, {elapsed} elapsed, eta {eta}")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
-    let summary = render_scenes(scenes, dir, &mut |done, _| bar.set_position(done as u64))?;
+    let summary = render_scenes(scenes, dir, describe, &mut |done, _| {
+        bar.set_position(done as u64)
+    })?;
     bar.finish_and_clear();
     println!(
         "dataset {}: {} scenes rendered, {} already present",
@@ -140,18 +148,20 @@ pub fn run(a: SimulateArgs) -> Result<()> {
         let scenes = recipe
             .shard(a.shard)
             .map_err(|e| anyhow::anyhow!("{}: {e}", recipe_path.display()))?;
-        return render_with_bar(&scenes, out);
+        return render_with_bar(&scenes, out, a.describe);
     }
     let (options, sim) = scene_options(&a.scene)?;
     match (a.out, a.dataset, a.count) {
         (Some(out), _, _) => {
-            let secs = render_scene(&options, &sim, &out)?;
+            let secs = render_scene(&options, &sim, &out, a.describe)?;
             println!("{}  ({secs:.1} s)", out.display());
             Ok(())
         }
-        (None, Some(dataset), Some(count)) => {
-            render_with_bar(&seed_run(&options, &sim, a.scene.seed, count), &dataset)
-        }
+        (None, Some(dataset), Some(count)) => render_with_bar(
+            &seed_run(&options, &sim, a.scene.seed, count),
+            &dataset,
+            a.describe,
+        ),
         _ => bail!("give --out DIR, --dataset DIR with --count N, or --recipe FILE with --out DIR"),
     }
 }

@@ -434,7 +434,7 @@ fn ensure_scenes(
                 samples: spec.samples,
                 ..SimOptions::default()
             };
-            let secs = matscan_sim::dataset::render_scene(&options, &sim, &out)?;
+            let secs = matscan_sim::dataset::render_scene(&options, &sim, &out, false)?;
             progress(&format!("  {secs:.1} s"));
         }
         scans.push(out);

@@ -15,4 +15,7 @@ pub enum SimError {
     NoSuchLight { position: String, light: String },
     #[error("invalid render options: {0}")]
     Options(String),
+    /// A scene description could not be made.
+    #[error("{}: {message}", path.display())]
+    Description { path: PathBuf, message: String },
 }

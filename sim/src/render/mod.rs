@@ -13,7 +13,8 @@
 //! - [`capture`]: captures of a position as sums of slots, `illum_` images;
 //! - [`truth`]: ground-truth maps and the object mask;
 //! - [`drowned`]: positions where the environment drowns the rig lights;
-//! - [`bundle_writer`]: a complete `matscan-scan/1` bundle of a scene.
+//! - [`bundle_writer`]: a complete `matscan-scan/1` bundle of a scene;
+//! - [`describe`]: the scene beside its bundle, for a second renderer.
 //!
 //! Design. Every capture is ambient plus its rig lights, and transport is
 //! linear, so one path-traced pass per position fills one image per
@@ -59,6 +60,7 @@
 
 pub mod bundle_writer;
 pub mod capture;
+pub mod describe;
 pub mod drowned;
 pub mod environment;
 pub mod error;

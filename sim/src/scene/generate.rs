@@ -119,6 +119,7 @@ pub fn generate(options: &SceneOptions) -> Scene {
     Scene {
         name: format!("{}-{}-{:04}", options.kind, geometry_name, seed),
         kind: options.kind.name().to_string(),
+        geometry: geometry_name.to_string(),
         mesh,
         material,
         environment,

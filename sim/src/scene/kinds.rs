@@ -16,6 +16,9 @@
 //! - `3mat`: `2mat` with the second material split again by a second binary
 //!   map; the two parts differ in basecolor, roughness and metallic and share
 //!   transmission and subsurface (as the thesis describes it).
+//! - `realworld`: wood, stone, fabric or painted metal in turn by seed, as
+//!   the thesis's "textureheaven" set (`super::realworld`); never drawn for
+//!   training (a held-out material kind).
 //! - `sweep-*` (the thesis's "predefined" datasets): spatially constant
 //!   materials that step through one parameter across scenes while the rest
 //!   stay fixed; the step is `seed % sweep_len`, so seeds 0..len enumerate the
@@ -58,6 +61,7 @@ pub enum SceneKind {
     SweepSubsurface,
     SweepBasecolor,
     SweepRoughness,
+    RealWorld,
 }
 
 const SUBSURFACE_STEPS: u64 = 20;
@@ -69,7 +73,7 @@ const ROUGHNESS_STEPS: u64 = 40;
 const ROUGHNESS_BASECOLORS: [f32; 3] = [1.0, 0.5, 0.0];
 
 impl SceneKind {
-    pub const ALL: [SceneKind; 8] = [
+    pub const ALL: [SceneKind; 9] = [
         SceneKind::Multimat,
         SceneKind::MultimatNoEnv,
         SceneKind::TwoMat,
@@ -78,6 +82,7 @@ impl SceneKind {
         SceneKind::SweepSubsurface,
         SceneKind::SweepBasecolor,
         SceneKind::SweepRoughness,
+        SceneKind::RealWorld,
     ];
 
     pub fn name(self) -> &'static str {
@@ -90,6 +95,7 @@ impl SceneKind {
             SceneKind::SweepSubsurface => "sweep-subsurface",
             SceneKind::SweepBasecolor => "sweep-basecolor",
             SceneKind::SweepRoughness => "sweep-roughness",
+            SceneKind::RealWorld => "realworld",
         }
     }
 
@@ -165,6 +171,7 @@ impl SceneKind {
             return MaterialField::uniform(&m);
         }
         match self {
+            SceneKind::RealWorld => super::realworld::material(rng, seed, map_size),
             SceneKind::TwoMat => {
                 let labels = labels_from(&binary_map(rng, map_size), None);
                 let a = random_material(rng);

@@ -7,6 +7,8 @@
 //! - [`geometry`]: procedural meshes with UVs, and user meshes;
 //! - [`maps`]: random parameter maps (thesis 3.1.3.1), on [`noise`];
 //! - [`kinds`]: the scene kinds and the material each authors (thesis 3.1.7);
+//! - [`realworld`]: wood, stone, fabric and painted metal for the
+//!   `realworld` kind;
 //! - [`rig`]: the scan head, its randomization and its manifest lights;
 //! - [`generate`](mod@generate): a whole scene from a seed.
 
@@ -17,6 +19,7 @@ pub mod kinds;
 pub mod maps;
 pub mod model;
 pub mod noise;
+pub mod realworld;
 pub mod rig;
 
 pub use generate::{generate, GeometrySource, SceneOptions};

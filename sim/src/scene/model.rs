@@ -140,6 +140,8 @@ pub struct Scene {
     pub name: String,
     /// Scene kind name (`2mat`, `multimat`, ...), for grouping in evaluation.
     pub kind: String,
+    /// Geometry family (`sphere`, `vase`, ..., `mesh` for a user's mesh).
+    pub geometry: String,
     pub mesh: Mesh,
     pub material: MaterialField,
     pub environment: EnvSpec,

@@ -248,6 +248,7 @@ pub fn scene(
     Scene {
         name: "test".into(),
         kind: "test".into(),
+        geometry: "mesh".into(),
         mesh,
         material: MaterialField::uniform(material),
         environment,
