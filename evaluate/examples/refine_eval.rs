@@ -7,7 +7,7 @@
 //!
 //! ```text
 //! cargo run --release -p matscan-evaluate --example refine_eval -- \
-//!     data/heldout [iterations=10] [calibration|network] [limit]
+//!     data/heldout-64 [iterations=10] [calibration|network] [limit]
 //! ```
 //!
 //! `REFINE_PRIOR=basecolor,ln_roughness,metallic` (prior sigmas) and
@@ -62,7 +62,7 @@ fn triple(var: &str) -> Option<[f64; 3]> {
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
-    let root = PathBuf::from(args.get(1).map_or("data/heldout", String::as_str));
+    let root = PathBuf::from(args.get(1).map_or("data/heldout-64", String::as_str));
     let iterations: u32 = args.get(2).map_or(Ok(10), |s| s.parse())?;
     let illumination = match args.get(3).map(String::as_str) {
         Some("network") => IlluminationSource::Network,

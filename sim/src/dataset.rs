@@ -347,6 +347,57 @@ seed = 200
 size = 24
 "#;
 
+    fn shipped(name: &str) -> Recipe {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../data/recipes")
+            .join(name);
+        Recipe::read(&path).unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    fn geometries(r: &Recipe) -> std::collections::BTreeSet<String> {
+        r.sets.iter().map(|s| s.geometry.clone()).collect()
+    }
+
+    #[test]
+    fn the_heldout_yardstick_holds_its_promises() {
+        let heldout = shipped("heldout.toml");
+        let scenes = heldout.scenes().unwrap();
+        assert!(scenes.len() >= 60, "{} scenes", scenes.len());
+        assert_eq!(
+            (heldout.size, heldout.positions, heldout.samples),
+            (256, 3, 32)
+        );
+        let realworld = scenes
+            .iter()
+            .filter(|s| s.scene.kind == SceneKind::RealWorld)
+            .count();
+        assert!(realworld >= 10, "{realworld} realworld scenes");
+        for kind in [
+            "2mat",
+            "3mat",
+            "multimat",
+            "multimat-noenv",
+            "2mat-transmission",
+            "sweep-subsurface",
+        ] {
+            assert!(heldout.sets.iter().any(|s| s.kind == kind), "no {kind}");
+        }
+        // Shapes never used for training or tuning, but the leaves (the one
+        // shape with thin transmissive sheets).
+        let seen: std::collections::BTreeSet<String> = geometries(&shipped("train.toml"))
+            .into_iter()
+            .chain(geometries(&shipped("tune.toml")))
+            .collect();
+        let shared: Vec<String> = geometries(&heldout)
+            .intersection(&seen)
+            .filter(|g| g.as_str() != "leaves")
+            .cloned()
+            .collect();
+        assert!(shared.is_empty(), "held-out shapes also seen: {shared:?}");
+        let unseen = geometries(&heldout).len() - 1;
+        assert!(unseen >= 4, "{unseen} unseen shapes");
+    }
+
     #[test]
     fn a_recipe_names_every_scene_with_its_seed_and_folder() {
         let recipe: Recipe = toml::from_str(RECIPE).unwrap();
@@ -424,6 +475,6 @@ size = 24
                 n += 1;
             }
         }
-        assert!(n >= 3, "expected the held-out, test and training recipes");
+        assert!(n >= 5, "expected the held-out (two), tuning, test and training recipes");
     }
 }

@@ -4,7 +4,7 @@
 
 use super::options::EvalOptions;
 use super::report::Configuration;
-use super::tables::{scene_group, GroupBy, SceneResult};
+use super::tables::{geometry_family, scene_group, GroupBy, SceneResult};
 use crate::scans::{usable_views, view_filter};
 use anyhow::{Context, Result};
 use burn::tensor::Device;
@@ -63,6 +63,7 @@ pub fn evaluate_prepared(
     let mut result = SceneResult {
         scan: scan.to_path_buf(),
         group: scene_group(&bundle.manifest.name, group_by),
+        family: geometry_family(&bundle.manifest.name),
         seconds: report.result.timings.total_s,
         metrics: BTreeMap::new(),
         baseline: BTreeMap::new(),

@@ -16,7 +16,7 @@
 //! code's input assembly, as training uses it), predictions from
 //! `truth_fed::predict`; tables are the module root's.
 
-use super::tables::{scene_group, GroupBy, SceneResult};
+use super::tables::{geometry_family, scene_group, GroupBy, SceneResult};
 use anyhow::{Context, Result};
 use burn::tensor::Device;
 use matscan_estimate::pipeline::metrics::error_metrics;
@@ -43,11 +43,13 @@ pub fn evaluate_scene_independent(
 ) -> Result<Vec<SceneResult>> {
     let bundle = Bundle::open(scan)?;
     let group = scene_group(&bundle.manifest.name, group_by);
+    let family = geometry_family(&bundle.manifest.name);
     let mut results: Vec<SceneResult> = counts
         .iter()
         .map(|_| SceneResult {
             scan: scan.to_path_buf(),
             group: group.clone(),
+            family: family.clone(),
             seconds: 0.0,
             metrics: BTreeMap::new(),
             baseline: BTreeMap::new(),

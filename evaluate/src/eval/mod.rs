@@ -45,7 +45,7 @@ use report::{views_label, write_csv_rows, write_group_tables, write_overall, wri
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::PathBuf;
-use tables::{group_rows, CSV_HEADER};
+use tables::{family_rows, group_rows, CSV_HEADER};
 use truth::mean_truth;
 
 /// The thesis's Table 4.1 (ALL row): MAD per parameter.
@@ -138,14 +138,16 @@ pub fn run(args: &EvalOptions) -> Result<EvalReport> {
         if let Some(all) = overall {
             write_overall(&mut table, all, &thesis);
         }
-        write_group_tables(&mut table, &rows);
+        write_group_tables(&mut table, &rows, "scene group");
+        let families = family_rows(&c.results);
+        write_group_tables(&mut table, &families, "geometry family");
         if args.per_scene {
             write_scene_table(&mut table, &c.results);
         }
         for f in c.failures.iter().take(5) {
             let _ = writeln!(table, "  failed: {f}");
         }
-        write_csv_rows(&mut csv, count, &rows, &c.results, &thesis);
+        write_csv_rows(&mut csv, count, &rows, &families, &c.results, &thesis);
         if let Some(size) = args.textures {
             c.textures.write_table(&mut table, size);
             c.textures.write_csv(&mut csv, count);

@@ -52,8 +52,9 @@ pub(super) fn write_overall(table: &mut String, all: &GroupRow, thesis: &BTreeMa
 }
 
 /// Tables 4.1 to 4.3: one per metric, a row per group and `ALL`, a column
-/// per parameter, and the group's median run time.
-pub(super) fn write_group_tables(table: &mut String, rows: &[GroupRow]) {
+/// per parameter, and the group's median run time; `by` names the grouping
+/// ("scene group", "geometry family").
+pub(super) fn write_group_tables(table: &mut String, rows: &[GroupRow], by: &str) {
     let width = rows.iter().map(|r| r.group.len()).max().unwrap_or(0).max(7);
     type Pick = fn(&super::tables::Means) -> f64;
     let metrics: [(&str, Pick, usize); 3] = [
@@ -62,11 +63,7 @@ pub(super) fn write_group_tables(table: &mut String, rows: &[GroupRow]) {
         ("PSNR", |m| m.psnr, 2),
     ];
     for (name, pick, decimals) in metrics {
-        let _ = write!(
-            table,
-            "\n{name} by scene group\n{:<width$} {:>3}",
-            "group", "#"
-        );
+        let _ = write!(table, "\n{name} by {by}\n{:<width$} {:>3}", "group", "#");
         for kind in matscan_estimate::PIPELINE_ORDER {
             let _ = write!(table, " {:>12}", kind.name());
         }
@@ -135,20 +132,29 @@ pub(super) fn write_scene_table(table: &mut String, results: &[SceneResult]) {
 }
 
 /// The tidy CSV rows of one view configuration: `overall` (the ALL row with
-/// baseline and thesis), `group` (each group) and `scene` (each scene).
+/// baseline and thesis), `group` (each group), `family` (each geometry
+/// family) and `scene` (each scene).
 pub(super) fn write_csv_rows(
     csv: &mut String,
     count: usize,
     rows: &[GroupRow],
+    families: &[GroupRow],
     results: &[SceneResult],
     thesis: &BTreeMap<Param, f64>,
 ) {
-    for row in rows {
+    let families = families
+        .iter()
+        .filter(|r| r.group != super::tables::ALL_GROUP)
+        .map(|r| ("family", r));
+    let groups = rows.iter().map(|row| {
         let table = if row.group == super::tables::ALL_GROUP {
             "overall"
         } else {
             "group"
         };
+        (table, row)
+    });
+    for (table, row) in groups.chain(families) {
         for kind in matscan_estimate::PIPELINE_ORDER {
             let Some(m) = row.estimate.get(&kind) else {
                 continue;

@@ -84,6 +84,25 @@ pub fn scene_group(name: &str, by: GroupBy) -> String {
     }
 }
 
+/// The geometry family of a scan named `name` (`<kind>-<geometry>-<seed>`,
+/// as simulated scans are named): `torus`, `vase`, ...; `other` for names
+/// of another form.
+pub fn geometry_family(name: &str) -> String {
+    let kind = scene_group(name, GroupBy::Kind);
+    if kind == OTHER_GROUP {
+        return OTHER_GROUP.to_string();
+    }
+    let rest = name[kind.len()..].trim_start_matches('-');
+    match rest.rsplit_once('-') {
+        Some((geometry, seed))
+            if !geometry.is_empty() && seed.bytes().all(|b| b.is_ascii_digit()) =>
+        {
+            geometry.to_string()
+        }
+        _ => OTHER_GROUP.to_string(),
+    }
+}
+
 /// One scan's estimate under one configuration.
 #[derive(Clone, Debug)]
 pub struct SceneResult {
@@ -91,6 +110,8 @@ pub struct SceneResult {
     pub scan: PathBuf,
     /// Its group (see [`scene_group`]).
     pub group: String,
+    /// Its geometry family (see [`geometry_family`]).
+    pub family: String,
     /// The estimate's own run time (`total_s`: writing excluded).
     pub seconds: f64,
     /// Error of each estimated parameter against the truth.
@@ -183,9 +204,18 @@ fn row(group: &str, scenes: &[&SceneResult]) -> GroupRow {
 /// every scene equally, as the thesis's ALL row does (it is not the mean
 /// of the group means).
 pub fn group_rows(results: &[SceneResult]) -> Vec<GroupRow> {
+    rows_by(results, |r| &r.group)
+}
+
+/// [`group_rows`] with one row per geometry family instead.
+pub fn family_rows(results: &[SceneResult]) -> Vec<GroupRow> {
+    rows_by(results, |r| &r.family)
+}
+
+fn rows_by(results: &[SceneResult], key: fn(&SceneResult) -> &String) -> Vec<GroupRow> {
     let mut groups: BTreeMap<&str, Vec<&SceneResult>> = BTreeMap::new();
     for r in results {
-        groups.entry(r.group.as_str()).or_default().push(r);
+        groups.entry(key(r).as_str()).or_default().push(r);
     }
     let all: Vec<&SceneResult> = results.iter().collect();
     groups
@@ -231,6 +261,7 @@ mod tests {
         SceneResult {
             scan: PathBuf::from(format!("{group}-{seconds}")),
             group: group.into(),
+            family: "sphere".into(),
             seconds,
             metrics: [(
                 Param::Roughness,
@@ -242,6 +273,17 @@ mod tests {
                 .into_iter()
                 .collect(),
         }
+    }
+
+    #[test]
+    fn the_geometry_family_is_the_names_middle_part() {
+        assert_eq!(geometry_family("2mat-torus-0003"), "torus");
+        assert_eq!(geometry_family("multimat-noenv-box-30320"), "box");
+        assert_eq!(geometry_family("2mat-transmission-leaves-0007"), "leaves");
+        assert_eq!(geometry_family("realworld-figurine-30633"), "figurine");
+        assert_eq!(geometry_family("my-real-scan"), OTHER_GROUP);
+        assert_eq!(geometry_family("2mat-0003"), OTHER_GROUP);
+        assert_eq!(geometry_family("3mat-vase-x"), OTHER_GROUP);
     }
 
     #[test]
