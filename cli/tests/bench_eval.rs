@@ -16,6 +16,13 @@ fn bench_quick_writes_a_row_per_setting_with_finite_figures_and_a_png() {
     let tmp = tempfile::tempdir().unwrap();
     let data = tmp.path().join("set");
     let out = tmp.path().join("out");
+    let recipe = tmp.path().join("tiny.toml");
+    std::fs::write(
+        &recipe,
+        "description = \"tiny\"\nsize = 32\npositions = 2\nsamples = 2\n\
+         [[set]]\nkind = \"2mat\"\ngeometry = \"sphere\"\ncount = 1\nseed = 40000\n",
+    )
+    .unwrap();
     let stdout = matscan_ok(&[
         "bench",
         "--quick",
@@ -25,10 +32,8 @@ fn bench_quick_writes_a_row_per_setting_with_finite_figures_and_a_png() {
         out.to_str().unwrap(),
         "--base-size",
         "32",
-        "--positions",
-        "2",
-        "--samples",
-        "2",
+        "--recipe",
+        recipe.to_str().unwrap(),
         "--skip",
         "width",
     ]);
@@ -40,10 +45,11 @@ fn bench_quick_writes_a_row_per_setting_with_finite_figures_and_a_png() {
     }
     assert!(data
         .join("32px")
-        .join("2mat-40000")
+        .join("2mat-sphere")
+        .join("scene-040000")
         .join("scan.toml")
         .is_file());
-    assert!(data.join("bench-data.toml").is_file());
+    assert!(data.join("bench-recipe.toml").is_file());
 
     let csv = std::fs::read_to_string(out.join("bench.csv")).unwrap();
     let lines: Vec<&str> = csv.lines().collect();

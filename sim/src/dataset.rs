@@ -33,7 +33,7 @@
 use crate::render::describe::{description_dir, write_description, DESCRIPTION_FILE};
 use crate::render::{write_scan_bundle, SimError, SimOptions};
 use crate::scene::{generate, GeometryKind, GeometrySource, SceneKind, SceneOptions};
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -169,7 +169,7 @@ pub fn seed_run(
 }
 
 /// One `[[set]]` of a recipe.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct RecipeSet {
     pub kind: String,
@@ -183,7 +183,7 @@ pub struct RecipeSet {
 
 /// A data set described by scene kind, geometry, count, seed, image size
 /// and samples (see the module doc).
-#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Recipe {
     pub description: String,
@@ -222,7 +222,13 @@ impl Recipe {
             path: path.to_path_buf(),
             source,
         })?;
-        let recipe: Recipe = toml::from_str(&text).map_err(|e| DatasetError::Recipe {
+        Recipe::parse(&text, path)
+    }
+
+    /// Parses and checks the recipe `text`; errors name `path`, where it
+    /// came from.
+    pub fn parse(text: &str, path: &Path) -> Result<Recipe, DatasetError> {
+        let recipe: Recipe = toml::from_str(text).map_err(|e| DatasetError::Recipe {
             path: path.to_path_buf(),
             message: e.message().to_string(),
         })?;
@@ -306,6 +312,22 @@ impl Recipe {
             }
         }
         Ok(scenes)
+    }
+
+    /// Every scene, the sets taken in turn: the first scene of each set,
+    /// then the second of each, ...; so the first N scenes mix the sets
+    /// (what `matscan bench --scenes N` renders).
+    pub fn interleaved(&self) -> Result<Vec<PlannedScene>, String> {
+        let mut by_set: Vec<std::collections::VecDeque<PlannedScene>> = Vec::new();
+        let mut all = self.scenes()?.into_iter();
+        for set in &self.sets {
+            by_set.push(all.by_ref().take(set.count as usize).collect());
+        }
+        let mut out = Vec::new();
+        while by_set.iter().any(|s| !s.is_empty()) {
+            out.extend(by_set.iter_mut().filter_map(|s| s.pop_front()));
+        }
+        Ok(out)
     }
 
     /// The scenes of `shard` (all of them without one).
@@ -399,6 +421,27 @@ size = 24
     }
 
     #[test]
+    fn interleaving_takes_the_sets_in_turn_and_keeps_every_scene() {
+        let recipe: Recipe = toml::from_str(RECIPE).unwrap();
+        let folders: Vec<String> = recipe
+            .interleaved()
+            .unwrap()
+            .iter()
+            .map(|s| s.folder.display().to_string())
+            .collect();
+        assert_eq!(
+            folders,
+            [
+                "2mat-sphere/scene-000100",
+                "3mat-torus/scene-000200",
+                "2mat-sphere/scene-000101",
+                "3mat-torus/scene-000201",
+                "2mat-sphere/scene-000102",
+            ]
+        );
+    }
+
+    #[test]
     fn a_recipe_names_every_scene_with_its_seed_and_folder() {
         let recipe: Recipe = toml::from_str(RECIPE).unwrap();
         let scenes = recipe.scenes().unwrap();
@@ -475,6 +518,9 @@ size = 24
                 n += 1;
             }
         }
-        assert!(n >= 5, "expected the held-out (two), tuning, test and training recipes");
+        assert!(
+            n >= 5,
+            "expected the held-out (two), tuning, test and training recipes"
+        );
     }
 }

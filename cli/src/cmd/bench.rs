@@ -4,6 +4,7 @@
 use anyhow::Result;
 use clap::Args;
 use matscan_evaluate::bench::{self, BenchOptions, Knob};
+use matscan_sim::dataset::Recipe;
 use std::path::PathBuf;
 
 /// The flags of `matscan bench`.
@@ -46,20 +47,11 @@ pub struct BenchArgs {
     /// backend, refine.
     #[arg(long, value_delimiter = ',')]
     pub skip: Vec<Knob>,
-    /// Path-tracing samples per pixel when rendering the set.
-    #[arg(long, default_value_t = bench::DEFAULT_SAMPLES)]
-    pub samples: u32,
-    /// Scan-head positions per rendered scene.
-    #[arg(long, default_value_t = bench::DEFAULT_POSITIONS)]
-    pub positions: usize,
-    /// Geometry of the rendered scenes: sphere, torus, superquadric, blob,
-    /// leaves, vase, box, rock, figurine or random (one of the first five;
-    /// torus and the last four: families the shipped networks never saw).
-    #[arg(long, default_value = "random")]
-    pub geometry: String,
-    /// Seed of the first scene.
-    #[arg(long, default_value_t = bench::DEFAULT_SEED)]
-    pub seed: u64,
+    /// The recipe of the evaluation set (data/recipes/*.toml); its first
+    /// --scenes scenes, the sets in turn, at every size the knobs need
+    /// [default: data/recipes/bench.toml, built in].
+    #[arg(long, value_name = "FILE")]
+    pub recipe: Option<PathBuf>,
     /// Folder with `<param>.weights` per network (default: the weights
     /// built into this binary).
     #[arg(long, value_name = "DIR")]
@@ -79,10 +71,10 @@ pub fn run(a: &BenchArgs) -> Result<()> {
         widths: a.widths.clone(),
         refine: a.refine.clone(),
         skip: a.skip.clone(),
-        samples: a.samples,
-        positions: a.positions,
-        geometry: a.geometry.clone(),
-        seed: a.seed,
+        recipe: match &a.recipe {
+            Some(path) => Recipe::read(path)?,
+            None => bench::default_recipe(),
+        },
         weights: a.weights.clone(),
     };
     let report = bench::run(&options, &mut |line| eprintln!("{line}"))?;

@@ -18,13 +18,13 @@
 //! A new knob is one [`Knob`] variant, one arm in [`Sweep::settings`] and,
 //! if it changes something `RowConfig` does not hold yet, one field.
 //!
-//! The evaluation set is rendered once into `--data DIR`
-//! (`DIR/<size>px/<kind>-<seed>`, kinds 2mat, multimat and 3mat in turn,
-//! `--geometry` (default random; `torus` and the 3mat kind are never in
-//! the shipped networks' training set, so `--geometry torus` makes it a
-//! held-out set), seeds from `--seed`), with `DIR/bench-data.toml`
-//! recording how; a later run with other render settings stops instead of
-//! mixing sets. Each configuration's run time is the median over the scenes
+//! The evaluation set comes from a recipe (`data/recipes/bench.toml`,
+//! embedded, or `--recipe FILE`): the first `--scenes` of its scenes, its
+//! sets taken in turn, rendered once into `--data DIR` at every image size
+//! the knobs need (`DIR/<size>px/<kind>-<geometry>/scene-<seed>`), with the
+//! recipe copied to `DIR/bench-recipe.toml`; a later run with another
+//! recipe stops instead of mixing sets. Each configuration's run time is
+//! the median over the scenes
 //! of the estimate's own `total_s` (writing excluded); MAD is the mean over
 //! the scenes.
 //!
@@ -46,9 +46,8 @@ use matscan_estimate::refine::RefineOptions;
 use matscan_estimate::GpuUnavailable;
 use matscan_estimate::{EstimateOptions, ModelSource, Models, NetConfig, ParamNet};
 use matscan_scan::Param;
-use matscan_sim::render::SimOptions;
-use matscan_sim::scene::{GeometrySource, SceneKind, SceneOptions};
-use serde::{Deserialize, Serialize};
+use matscan_sim::dataset::Recipe;
+use matscan_sim::scene::SceneOptions;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -112,12 +111,15 @@ impl std::str::FromStr for Knob {
 
 /// Image size of every other knob's rows, by default.
 pub const DEFAULT_BASE_SIZE: u32 = 256;
-/// Path-tracing samples per pixel of the rendered set, by default.
-pub const DEFAULT_SAMPLES: u32 = 8;
-/// Scan-head positions per rendered scene, by default.
-pub const DEFAULT_POSITIONS: usize = 3;
-/// Seed of the set's first scene, by default.
-pub const DEFAULT_SEED: u64 = 40_000;
+/// The shipped bench set's recipe (`data/recipes/bench.toml`).
+pub const DEFAULT_RECIPE: &str = include_str!("../../../data/recipes/bench.toml");
+
+/// The shipped bench recipe.
+pub fn default_recipe() -> Recipe {
+    // A shipped file that a test reads: it parses.
+    Recipe::parse(DEFAULT_RECIPE, Path::new("data/recipes/bench.toml"))
+        .expect("the shipped bench recipe parses")
+}
 
 /// What `matscan bench` sweeps, and on which set. `None` fields take the
 /// defaults of [`Sweep::from_options`] (smaller with `quick`).
@@ -149,14 +151,9 @@ pub struct BenchOptions {
     pub refine: Option<Vec<u32>>,
     /// Knobs to leave out.
     pub skip: Vec<Knob>,
-    /// Path-tracing samples per pixel when rendering the set.
-    pub samples: u32,
-    /// Scan-head positions per rendered scene.
-    pub positions: usize,
-    /// Geometry of the rendered scenes (a name, or `random`).
-    pub geometry: String,
-    /// Seed of the first scene.
-    pub seed: u64,
+    /// The set: its scenes, positions and samples (the image size comes
+    /// from the knobs).
+    pub recipe: Recipe,
     /// Folder with `<param>.weights` per network; `None`: the embedded ones.
     pub weights: Option<PathBuf>,
 }
@@ -175,10 +172,7 @@ impl BenchOptions {
             widths: None,
             refine: None,
             skip: Vec::new(),
-            samples: DEFAULT_SAMPLES,
-            positions: DEFAULT_POSITIONS,
-            geometry: "random".to_string(),
-            seed: DEFAULT_SEED,
+            recipe: default_recipe(),
             weights: None,
         }
     }
@@ -368,73 +362,46 @@ pub enum Outcome {
     Failed(String),
 }
 
-/// How the evaluation set was rendered (`bench-data.toml`).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-struct DataSpec {
-    samples: u32,
-    positions: usize,
-    first_seed: u64,
-    /// Sets recorded before the flag existed were random.
-    #[serde(default = "random_geometry")]
-    geometry: String,
-}
-
-fn random_geometry() -> String {
-    "random".to_string()
-}
-
-impl DataSpec {
-    fn geometry_source(&self) -> Result<GeometrySource> {
-        Ok(match self.geometry.as_str() {
-            "random" => GeometrySource::Random,
-            g => GeometrySource::Kind(
-                g.parse::<matscan_sim::scene::GeometryKind>()
-                    .map_err(|e| anyhow::anyhow!("--geometry {g}: {e} or random"))?,
-            ),
-        })
-    }
-}
-
-const DATA_SPEC: &str = "bench-data.toml";
-/// Scene kinds of the set, in turn.
-const KINDS: [SceneKind; 3] = [SceneKind::TwoMat, SceneKind::Multimat, SceneKind::ThreeMat];
+/// Where the set's recipe is recorded, beside the set.
+const DATA_RECIPE: &str = "bench-recipe.toml";
 
 /// The scans of the set at `size`, rendering those missing.
 fn ensure_scenes(
     dir: &Path,
-    spec: &DataSpec,
+    recipe: &Recipe,
     size: u32,
     scenes: usize,
     progress: &mut dyn FnMut(&str),
 ) -> Result<Vec<PathBuf>> {
     let folder = dir.join(format!("{size}px"));
-    std::fs::create_dir_all(&folder).with_context(|| format!("creating {}", folder.display()))?;
+    let planned = recipe
+        .interleaved()
+        .map_err(|e| anyhow::anyhow!("the bench recipe: {e}"))?;
+    if planned.len() < scenes {
+        bail!(
+            "the bench recipe has {} scenes, --scenes asks for {scenes}",
+            planned.len()
+        );
+    }
     let mut scans = Vec::new();
-    for i in 0..scenes {
-        let seed = spec.first_seed + i as u64;
-        let kind = KINDS[i % KINDS.len()];
-        let out = folder.join(format!("{}-{seed}", kind.name()));
+    for p in planned.into_iter().take(scenes) {
+        let out = folder.join(&p.folder);
         if !out.join("scan.toml").is_file() {
             progress(&format!(
                 "rendering {} ({size}x{size}, {} spp)",
                 out.display(),
-                spec.samples
+                p.sim.samples
             ));
+            if let Some(parent) = out.parent() {
+                std::fs::create_dir_all(parent)
+                    .with_context(|| format!("creating {}", parent.display()))?;
+            }
             let options = SceneOptions {
-                seed,
-                kind,
-                geometry: spec.geometry_source()?,
                 width: size,
                 height: size,
-                positions: spec.positions,
-                ..SceneOptions::default()
+                ..p.scene
             };
-            let sim = SimOptions {
-                seed,
-                samples: spec.samples,
-                ..SimOptions::default()
-            };
-            let secs = matscan_sim::dataset::render_scene(&options, &sim, &out, false)?;
+            let secs = matscan_sim::dataset::render_scene(&options, &p.sim, &out, false)?;
             progress(&format!("  {secs:.1} s"));
         }
         scans.push(out);
@@ -442,29 +409,25 @@ fn ensure_scenes(
     Ok(scans)
 }
 
-/// Checks (or records) how the set in `dir` was rendered.
-fn check_data_spec(dir: &Path, spec: &DataSpec) -> Result<()> {
+/// Checks (or records) the recipe the set in `dir` was rendered from.
+fn check_data_recipe(dir: &Path, recipe: &Recipe, text: &str) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    let path = dir.join(DATA_SPEC);
+    let path = dir.join(DATA_RECIPE);
     match std::fs::read_to_string(&path) {
-        Ok(text) => {
-            let found: DataSpec = toml::from_str(&text).with_context(|| {
-                format!(
-                    "{}: expected samples, positions, first_seed and geometry",
-                    path.display()
-                )
-            })?;
-            if &found != spec {
+        Ok(found_text) => {
+            let found = Recipe::parse(&found_text, &path)?;
+            if &found != recipe {
                 bail!(
-                    "{}: the set there was rendered with {found:?}, this run asks for {spec:?}; \
-                     use another --data folder or the same --samples, --positions, --seed and --geometry",
-                    path.display()
+                    "{}: the set there was rendered from another recipe ({:?}) than this run's \
+                     ({:?}); use another --data folder or the same --recipe",
+                    path.display(),
+                    found.description,
+                    recipe.description
                 );
             }
             Ok(())
         }
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
-            let text = toml::to_string(spec).context("encoding bench-data.toml")?;
             matscan_scan::atomic::write_atomic(&path, text.as_bytes())
                 .with_context(|| format!("writing {}", path.display()))
         }
@@ -750,19 +713,13 @@ pub fn run(args: &BenchOptions, progress: &mut dyn FnMut(&str)) -> Result<String
     if args.weights.is_none() && EMBEDDED.is_empty() {
         bail!("this build embeds no trained weights; pass --weights DIR");
     }
-    let spec = DataSpec {
-        samples: args.samples.max(1),
-        positions: args.positions.max(1),
-        first_seed: args.seed,
-        geometry: args.geometry.clone(),
-    };
-    spec.geometry_source()?;
-    check_data_spec(&args.data, &spec)?;
+    let recipe_text = toml::to_string(&args.recipe).context("encoding the bench recipe")?;
+    check_data_recipe(&args.data, &args.recipe, &recipe_text)?;
     let mut scans_at = BTreeMap::new();
     for size in plan.sizes_needed() {
         scans_at.insert(
             size,
-            ensure_scenes(&args.data, &spec, size, plan.scenes, progress)?,
+            ensure_scenes(&args.data, &args.recipe, size, plan.scenes, progress)?,
         );
     }
     let render_s = started.elapsed().as_secs_f64();
@@ -841,32 +798,22 @@ mod tests {
     }
 
     #[test]
-    fn the_set_records_its_geometry_and_older_sets_read_as_random() {
-        let old: DataSpec =
-            toml::from_str("samples = 8\npositions = 3\nfirst_seed = 40000\n").unwrap();
-        assert_eq!(old.geometry, "random");
-        assert!(matches!(
-            old.geometry_source().unwrap(),
-            GeometrySource::Random
-        ));
-        let torus = DataSpec {
-            geometry: "torus".into(),
-            ..old.clone()
-        };
-        assert!(matches!(
-            torus.geometry_source().unwrap(),
-            GeometrySource::Kind(matscan_sim::scene::GeometryKind::Torus)
-        ));
+    fn the_set_records_its_recipe_and_refuses_another() {
+        let shipped = default_recipe();
+        assert!(shipped.interleaved().unwrap().len() >= 12);
+        let text = toml::to_string(&shipped).unwrap();
         let dir = tempfile::tempdir().unwrap();
-        check_data_spec(dir.path(), &old).unwrap();
-        let e = check_data_spec(dir.path(), &torus).unwrap_err().to_string();
-        assert!(e.contains("--geometry"), "{e}");
-        let bogus = DataSpec {
-            geometry: "teapot".into(),
-            ..old
-        };
-        let e = bogus.geometry_source().unwrap_err().to_string();
-        assert!(e.contains("--geometry teapot"), "{e}");
+        check_data_recipe(dir.path(), &shipped, &text).unwrap();
+        check_data_recipe(dir.path(), &shipped, &text).unwrap();
+        let mut other = shipped.clone();
+        other.samples += 1;
+        let e = check_data_recipe(dir.path(), &other, &text)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("bench-recipe.toml") && e.contains("--recipe"),
+            "{e}"
+        );
     }
 
     #[test]
