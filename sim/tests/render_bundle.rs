@@ -120,3 +120,81 @@ fn a_failed_simulation_leaves_no_bundle() {
         "no temporary left"
     );
 }
+
+#[test]
+fn a_description_names_every_capture_of_its_bundle_and_the_files_it_needs() {
+    use matscan_sim::render::describe::{description_dir, write_description, DESCRIPTION_FORMAT};
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("scan");
+    let scene = small_scene();
+    let bundle = write_scan_bundle(&scene, &options(), &out).unwrap();
+    let described = write_description(&scene, &options(), &bundle, &out).unwrap();
+    assert_eq!(described, description_dir(&out));
+    assert_eq!(described, dir.path().join("scan.scene"));
+    let text = std::fs::read_to_string(described.join("scene.json")).unwrap();
+    let doc: serde_json::Value = serde_json::from_str(&text).unwrap();
+    assert_eq!(doc["format"], DESCRIPTION_FORMAT);
+    assert_eq!(doc["bundle"], "../scan");
+    assert_eq!(doc["geometry"], "sphere");
+    assert_eq!(doc["kind"], "multimat");
+    assert_eq!(doc["camera"]["width"], 32);
+    // Every file the description names is there.
+    let file = |v: &serde_json::Value| described.join(v.as_str().unwrap());
+    assert!(file(&doc["mesh"]).is_file());
+    assert!(file(&doc["environment"]["map"]).is_file());
+    for p in [
+        "basecolor",
+        "roughness",
+        "metallic",
+        "transmission",
+        "subsurface",
+    ] {
+        let m = &doc["material"][p];
+        assert!(
+            m.get("map").is_some() || m.get("value").is_some(),
+            "{p}: {m}"
+        );
+        if let Some(map) = m.get("map") {
+            assert!(file(map).is_file(), "{p}");
+        }
+    }
+    // The captures are the bundle's, in its order, with the same lights.
+    let positions = doc["positions"].as_array().unwrap();
+    assert_eq!(positions.len(), bundle.manifest.positions.len());
+    for (p, m) in positions.iter().zip(&bundle.manifest.positions) {
+        assert_eq!(p["name"], m.name.as_str());
+        let captures = p["captures"].as_array().unwrap();
+        assert_eq!(captures.len(), m.captures.len());
+        for (c, mc) in captures.iter().zip(&m.captures) {
+            assert_eq!(c["file"], mc.file.to_string_lossy().as_ref());
+            let mut lights: Vec<String> = c["flashes"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|f| f.as_str().unwrap().to_string())
+                .collect();
+            if !c["projector"].is_null() {
+                lights.push(p["projector"]["name"].as_str().unwrap().to_string());
+            }
+            if c["backlight"] == true {
+                lights.push(p["backlight"]["name"].as_str().unwrap().to_string());
+            }
+            let mut expected = mc.lights.clone();
+            expected.sort();
+            lights.sort();
+            assert_eq!(lights, expected, "{}", mc.name);
+        }
+        // Row-major pose: the last row is (0, 0, 0, 1).
+        let pose: Vec<f64> = p["camera_to_world"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_f64().unwrap())
+            .collect();
+        assert_eq!(&pose[12..], &[0.0, 0.0, 0.0, 1.0]);
+        assert!((pose[3] - m.camera_to_world.w_axis.x).abs() < 1e-12);
+    }
+    // Describing again replaces the old description.
+    write_description(&scene, &options(), &bundle, &out).unwrap();
+    assert!(described.join("scene.json").is_file());
+}

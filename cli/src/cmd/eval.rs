@@ -29,7 +29,7 @@ pub struct EvalArgs {
     #[arg(long)]
     pub limit: Option<usize>,
     /// Also write every table as one CSV here (column `table`: overall,
-    /// group or scene).
+    /// group, family or scene).
     #[arg(long, value_name = "FILE")]
     pub csv: Option<PathBuf>,
     /// Rows of the per-group tables: kind (the scene kind) or dataset
