@@ -143,35 +143,33 @@ fn fill(
     Ok(())
 }
 
+/// One material input: `{ "value": v }`, or `{ "map": "<name>.exr" }`
+/// with the map written by `write` into `dir`.
+fn texture_json<T: Copy + serde::Serialize>(
+    dir: &Path,
+    name: &str,
+    texture: &Texture<T>,
+    write: fn(&Path, &matscan_scan::Raster<T>, Precision) -> Result<(), ScanError>,
+) -> Result<Value, SimError> {
+    Ok(match texture {
+        Texture::Constant(v) => json!({ "value": v }),
+        Texture::Map(r) => {
+            let file = format!("{name}.exr");
+            write(&dir.join(&file), r, Precision::Float)?;
+            json!({ "map": file })
+        }
+    })
+}
+
 /// The material section; maps become EXR files in `dir`.
 fn material_json(dir: &Path, m: &MaterialField) -> Result<Value, SimError> {
-    let rgb = |name: &str, t: &Texture<[f32; 3]>| -> Result<Value, SimError> {
-        Ok(match t {
-            Texture::Constant(v) => json!({ "value": v }),
-            Texture::Map(r) => {
-                let file = format!("{name}.exr");
-                write_rgb_exr(&dir.join(&file), r, Precision::Float)?;
-                json!({ "map": file })
-            }
-        })
-    };
-    let scalar = |name: &str, t: &Texture<f32>| -> Result<Value, SimError> {
-        Ok(match t {
-            Texture::Constant(v) => json!({ "value": v }),
-            Texture::Map(r) => {
-                let file = format!("{name}.exr");
-                write_scalar_exr(&dir.join(&file), r, Precision::Float)?;
-                json!({ "map": file })
-            }
-        })
-    };
     Ok(json!({
         "model": "principled-cycles-2.9x",
-        "basecolor": rgb("basecolor", &m.basecolor)?,
-        "roughness": scalar("roughness", &m.roughness)?,
-        "metallic": scalar("metallic", &m.metallic)?,
-        "transmission": scalar("transmission", &m.transmission)?,
-        "subsurface": scalar("subsurface", &m.subsurface)?,
+        "basecolor": texture_json(dir, "basecolor", &m.basecolor, write_rgb_exr)?,
+        "roughness": texture_json(dir, "roughness", &m.roughness, write_scalar_exr)?,
+        "metallic": texture_json(dir, "metallic", &m.metallic, write_scalar_exr)?,
+        "transmission": texture_json(dir, "transmission", &m.transmission, write_scalar_exr)?,
+        "subsurface": texture_json(dir, "subsurface", &m.subsurface, write_scalar_exr)?,
         "subsurface_radius": m.subsurface_radius.to_array(),
         "specular": matscan_bsdf::material::SPECULAR,
         "ior": matscan_bsdf::material::IOR,
