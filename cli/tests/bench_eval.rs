@@ -61,6 +61,9 @@ fn bench_quick_writes_a_row_per_setting_with_finite_figures_and_a_png() {
     assert_eq!(
         keys,
         [
+            ("method", "networks"),
+            ("method", "fit"),
+            ("method", "hybrid"),
             ("views", "1 view"),
             ("views", "all views"),
             ("resolution", "32 px"),

@@ -12,6 +12,9 @@
 //!   parameter), the run itself ([`estimate`]), metrics against truth, the
 //!   atomic output folder, and scenes prepared with truth dependencies for
 //!   training and the thesis's independent evaluation.
+//! - [`fit`]: the physical fit (`--method fit|hybrid`): basecolor,
+//!   roughness and metallic measured from the photos under the calibrated
+//!   lights, per material, with the share of the object the photos pinned.
 //! - [`refine`]: optional per-pixel analysis-by-synthesis fit after the
 //!   networks (basecolor, roughness, metallic) with confidence maps.
 //! - `train` (feature `train`): the trainer of section 3.2.2 and its
@@ -30,6 +33,7 @@
 #![doc = include_str!("../PERFORMANCE.md")]
 
 pub mod device;
+pub mod fit;
 pub mod net;
 pub mod pipeline;
 pub mod refine;

@@ -221,11 +221,14 @@ def _medium_object(material, mode):
         alpha = _input(m["roughness"], 1, transform=lambda r: np.clip(r, 0, 1) ** 2)
         bsdf = {"type": "roughdielectric", "distribution": "ggx", "int_ior": m["ior"], "ext_ior": 1.0,
                 "alpha": alpha if not isinstance(alpha, float) else max(alpha, 1e-4)}
+    # Mitsuba parses an "rgb" sigma_t as a reflectance (each channel at
+    # most 1), so its magnitude travels in `scale`.
+    scale = float(max(np.max(sigma_t), 1e-16))
     medium = {
         "type": "homogeneous",
         "albedo": {"type": "rgb", "value": albedo.tolist()},
-        "sigma_t": {"type": "rgb", "value": sigma_t.tolist()},
-        "scale": 1.0,
+        "sigma_t": {"type": "rgb", "value": (sigma_t / scale).tolist()},
+        "scale": scale,
         "phase": {"type": "isotropic"},
     }
     return bsdf, medium

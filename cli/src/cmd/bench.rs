@@ -43,8 +43,8 @@ pub struct BenchArgs {
     /// networks only) [default: 0,2,5,10; quick: 0,3].
     #[arg(long, value_delimiter = ',')]
     pub refine: Option<Vec<u32>>,
-    /// Knobs to leave out, comma-separated: views, resolution, width,
-    /// backend, refine.
+    /// Knobs to leave out, comma-separated: method, views, resolution,
+    /// width, backend, refine.
     #[arg(long, value_delimiter = ',')]
     pub skip: Vec<Knob>,
     /// The recipe of the evaluation set (data/recipes/*.toml); its first

@@ -18,6 +18,7 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use matscan_estimate::net::models::weights_file_name;
 use matscan_estimate::net::weights::EMBEDDED;
+use matscan_estimate::pipeline::method::Method;
 use matscan_estimate::pipeline::plan::{parse_given, parse_param};
 use matscan_estimate::refine::RefineOptions;
 use matscan_estimate::{
@@ -62,6 +63,13 @@ pub struct EstimateArgs {
     /// pixel (0: off). Run time grows linearly with N.
     #[arg(long, value_name = "N", default_value_t = 0)]
     pub refine: u32,
+    /// Who answers basecolor, roughness and metallic: networks (the
+    /// thesis's), fit (the physical fit to the photos under the calibrated
+    /// lights) or hybrid (the fit where the photos pin a value, the
+    /// networks elsewhere). Transmission and subsurface come from their
+    /// networks under every method.
+    #[arg(long, default_value_t = Method::default())]
+    pub method: Method,
     /// Where the networks run: cpu (the build's default CPU backend), flex,
     /// ndarray or gpu (Vulkan; needs a build with `--features vulkan`).
     #[arg(long, default_value = "cpu")]
@@ -120,6 +128,7 @@ pub fn run(args: &EstimateArgs) -> Result<()> {
             iterations: args.refine,
             ..RefineOptions::default()
         },
+        method: args.method,
         ..EstimateOptions::default()
     };
     let (device, adapter) = args
@@ -149,10 +158,16 @@ pub fn run(args: &EstimateArgs) -> Result<()> {
             continue;
         };
         let line = match entry.status {
-            Status::Estimated => format!(
-                "estimated ({})",
-                entry.model.as_deref().unwrap_or("unknown model")
-            ),
+            Status::Estimated => match (entry.method.as_deref(), entry.constrained) {
+                (Some(method), Some(share)) if method != "networks" => format!(
+                    "estimated ({method}; the photos pinned {:.0}% of the object)",
+                    100.0 * share
+                ),
+                _ => format!(
+                    "estimated ({})",
+                    entry.model.as_deref().unwrap_or("unknown model")
+                ),
+            },
             Status::Given => format!("given ({})", entry.source.as_deref().unwrap_or("")),
             Status::Skipped => format!("skipped: {}", entry.reason.as_deref().unwrap_or("")),
         };
@@ -172,6 +187,18 @@ pub fn run(args: &EstimateArgs) -> Result<()> {
             result.timings.refine_s,
             stops.join(", ")
         );
+    }
+    if let Some(f) = &result.fit {
+        println!(
+            "fit ({}, {:.2} s): {} materials; scale from {}",
+            f.method,
+            result.timings.fit_s,
+            f.materials.len(),
+            f.scale
+        );
+        for note in &f.notes {
+            println!("  note: {note}");
+        }
     }
     println!(
         "{:.2} s; wrote {}",

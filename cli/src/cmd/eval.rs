@@ -3,6 +3,7 @@
 
 use anyhow::{Context, Result};
 use clap::Args;
+use matscan_estimate::pipeline::method::Method;
 use matscan_evaluate::eval::tables::GroupBy;
 use matscan_evaluate::eval::{run as evaluate, DependencySource, EvalOptions};
 use std::path::PathBuf;
@@ -52,6 +53,11 @@ pub struct EvalArgs {
     /// re-render PSNR/SSIM under 2 novel lights and 2 novel views.
     #[arg(long, value_name = "SIZE", num_args = 0..=1, default_missing_value = "256")]
     pub textures: Option<u32>,
+    /// Who answers basecolor, roughness and metallic in the chained
+    /// estimate: networks, fit or hybrid (see `matscan estimate --help`).
+    /// The truth-fed protocol measures the networks alone.
+    #[arg(long, default_value_t = Method::default())]
+    pub method: Method,
 }
 
 /// Runs `matscan eval`: prints the tables, writes the CSV.
@@ -66,6 +72,7 @@ pub fn run(a: &EvalArgs) -> Result<()> {
         per_scene: a.per_scene,
         dependencies: a.dependencies,
         textures: a.textures,
+        method: a.method,
     })?;
     print!("{}", report.table);
     if let Some(path) = &a.csv {

@@ -3,6 +3,7 @@
 //! - [`views`]: which (position, lit capture) pairs are used;
 //! - [`inputs`]: each network's input tensors from photos and calibration;
 //! - [`plan`]: estimated, given or skipped per parameter; network stages;
+//! - [`method`]: networks, the physical fit, or both;
 //! - [`run`]: runs it all ([`estimate`](run::estimate));
 //! - [`metrics`]: MAD, MSE, PSNR against ground truth;
 //! - [`output`]: the atomic `estimate/` folder and `result.toml`;
@@ -10,6 +11,7 @@
 //!   dependencies (training and the thesis's independent evaluation).
 
 pub mod inputs;
+pub mod method;
 pub mod metrics;
 pub mod output;
 pub mod plan;

@@ -58,6 +58,15 @@ pub struct ParamResult {
     /// Views the network fused.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub views: Option<usize>,
+    /// Which estimator answered an estimated parameter: `networks`, `fit`
+    /// or `hybrid` (the fit where the photos pinned the value, the
+    /// networks elsewhere).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub method: Option<String>,
+    /// Share of the reference's object pixels whose value the photos
+    /// pinned (the fit's methods only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub constrained: Option<f32>,
 }
 
 /// Seconds per stage.
@@ -81,6 +90,9 @@ pub struct Timings {
     /// it did not run).
     #[serde(default)]
     pub refine_s: f64,
+    /// The physical fit, every position together (0 when it did not run).
+    #[serde(default)]
+    pub fit_s: f64,
 }
 
 /// `result.toml`.
@@ -113,6 +125,23 @@ pub struct ResultFile {
     /// What the refinement after the networks did, when it ran.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub refine: Option<crate::refine::RefineSummary>,
+    /// What the physical fit found, when it ran.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fit: Option<FitSummary>,
+}
+
+/// What `result.toml` records of the physical fit.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FitSummary {
+    /// `fit` or `hybrid`.
+    pub method: crate::pipeline::method::Method,
+    /// Where the lights' absolute scale came from.
+    pub scale: String,
+    /// The reference position's materials.
+    pub materials: Vec<crate::fit::MaterialFit>,
+    /// Views left out, pixels without observations.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub notes: Vec<String>,
 }
 
 impl ResultFile {
@@ -237,6 +266,8 @@ mod tests {
                 default: Some(0.0),
                 model: None,
                 views: None,
+                method: None,
+                constrained: None,
             },
         );
         ResultFile {
@@ -252,6 +283,7 @@ mod tests {
             timings: Timings::default(),
             metrics: BTreeMap::new(),
             refine: None,
+            fit: None,
         }
     }
 

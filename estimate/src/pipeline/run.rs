@@ -23,14 +23,17 @@
 //! `inputs`), the plan (see `plan`), file layout (see `output`), the fit
 //! (see `refine`).
 
+use crate::fit::{fit_scene, Constrained, Fallback, FitOptions, Fitted, Known};
 use crate::net::models::{ModelSource, Models, ModelsError};
 use crate::net::network::InputError;
 use crate::pipeline::inputs::{
     rgb_of_ycbcr, uncentre, Dependencies, InputsError, Photos, SceneInputs,
 };
+use crate::pipeline::method::Method;
 use crate::pipeline::metrics::error_metrics;
 use crate::pipeline::output::{
-    write_estimate, OutputError, ParamResult, ResultFile, Status, Timings, RESULT_FORMAT,
+    write_estimate, FitSummary, OutputError, ParamResult, ResultFile, Status, Timings,
+    RESULT_FORMAT,
 };
 use crate::pipeline::plan::{Availability, Decision, Given, Plan, PlanError};
 use crate::pipeline::views::{select_views, ViewError, ViewFilter};
@@ -64,6 +67,10 @@ pub struct EstimateOptions {
     pub references: References,
     /// The per-pixel refinement after the networks (off by default).
     pub refine: RefineOptions,
+    /// Who answers basecolor, roughness and metallic.
+    pub method: Method,
+    /// The physical fit's settings (for `Method::Fit` and `Hybrid`).
+    pub fit: FitOptions,
 }
 
 /// Which positions' camera images get maps.
@@ -255,15 +262,18 @@ pub fn estimate_prepared(
     timings.weights_s = t.elapsed().as_secs_f64();
 
     let mut tally = RefineTally::default();
+    let mut fits = FitTally::default();
     let pass = Pass {
         plan: &plan,
         models: &models,
         bundle,
         calibration,
         refine: &options.refine,
+        method: options.method,
+        fit: &options.fit,
         device,
     };
-    let (first, mut runs, given_s) = pass.run(&inputs, &mut tally)?;
+    let (first, mut runs, given_s) = pass.run(&inputs, &mut tally, &mut fits)?;
     timings.load_s += given_s;
     let t = Instant::now();
     let metrics = metrics(bundle, &set.reference, &first.maps, &inputs)?;
@@ -295,7 +305,7 @@ pub fn estimate_prepared(
                     warnings.push(w.clone());
                 }
             }
-            let (maps, more, given_s) = pass.run(&inputs, &mut tally)?;
+            let (maps, more, given_s) = pass.run(&inputs, &mut tally, &mut fits)?;
             timings.load_s += given_s;
             for (kind, (_, seconds)) in more {
                 runs.entry(kind).or_insert((0, 0.0)).1 += seconds;
@@ -308,20 +318,26 @@ pub fn estimate_prepared(
         .map(|(k, (_, s))| (k.name().to_string(), *s))
         .collect();
     timings.refine_s = tally.seconds;
+    timings.fit_s = fits.seconds;
     timings.total_s = prepared.load_s + prepared.calibration_s + start.elapsed().as_secs_f64();
 
     let mut params = BTreeMap::new();
     for kind in crate::net::spec::PIPELINE_ORDER {
         let model = models.get(kind).map(|m| m.id.clone());
         let entry = match plan.decision(kind) {
-            Decision::Estimate => ParamResult {
-                status: Status::Estimated,
-                reason: None,
-                source: None,
-                default: None,
-                model,
-                views: runs.get(&kind).map(|(v, _)| *v),
-            },
+            Decision::Estimate => {
+                let (method, constrained) = fits.answered(kind, options.method);
+                ParamResult {
+                    status: Status::Estimated,
+                    reason: None,
+                    source: None,
+                    default: None,
+                    model: if method == Method::Fit { None } else { model },
+                    views: runs.get(&kind).map(|(v, _)| *v),
+                    method: Some(method.to_string()),
+                    constrained,
+                }
+            }
             Decision::Given(given) => ParamResult {
                 status: Status::Given,
                 reason: None,
@@ -329,6 +345,8 @@ pub fn estimate_prepared(
                 default: None,
                 model: None,
                 views: None,
+                method: None,
+                constrained: None,
             },
             Decision::Skip { reason } => ParamResult {
                 status: Status::Skipped,
@@ -337,6 +355,8 @@ pub fn estimate_prepared(
                 default: Some(kind.default_value()),
                 model: None,
                 views: None,
+                method: None,
+                constrained: None,
             },
         };
         params.insert(kind.name().to_string(), entry);
@@ -357,6 +377,7 @@ pub fn estimate_prepared(
         timings,
         metrics,
         refine: tally.summary(&options.refine, &plan),
+        fit: fits.summary,
     };
     let out = options
         .out
@@ -406,6 +427,8 @@ struct Pass<'a> {
     bundle: &'a Bundle,
     calibration: &'a ScanCalibration,
     refine: &'a RefineOptions,
+    method: Method,
+    fit: &'a FitOptions,
     device: &'a Device,
 }
 
@@ -416,8 +439,21 @@ impl Pass<'_> {
         &self,
         inputs: &SceneInputs,
         tally: &mut RefineTally,
+        fits: &mut FitTally,
     ) -> Result<(PositionMaps, NetRuns, f64), EstimateError> {
         let (mut values, runs) = run_networks(self.plan, self.models, inputs, self.device)?;
+        if self.method != Method::Networks {
+            let fitted = fit_values(
+                &mut values,
+                self.plan,
+                self.bundle,
+                self.calibration,
+                inputs,
+                self.method,
+                self.fit,
+            )?;
+            fits.add(self.method, &fitted, self.bundle, inputs);
+        }
         let confidence = refine_values(
             &mut values,
             self.plan,
@@ -433,6 +469,117 @@ impl Pass<'_> {
         };
         Ok((maps, runs, values.given_s))
     }
+}
+
+/// What the fits of all positions did: the reference position's summary
+/// and shares, every position's seconds.
+#[derive(Default)]
+struct FitTally {
+    seconds: f64,
+    constrained: Option<Constrained>,
+    summary: Option<FitSummary>,
+}
+
+impl FitTally {
+    fn add(&mut self, method: Method, fitted: &Fitted, bundle: &Bundle, inputs: &SceneInputs) {
+        self.seconds += fitted.seconds;
+        if self.summary.is_some() {
+            return;
+        }
+        let position = bundle.position(&inputs.reference).ok();
+        let calibrated = position.is_some_and(|p| p.lights.iter().any(|l| l.intensity.is_some()));
+        self.constrained = Some(fitted.constrained);
+        self.summary = Some(FitSummary {
+            method,
+            scale: if calibrated {
+                "the manifest's calibrated light intensities".to_string()
+            } else {
+                "none: the manifest gives no light intensity, the fit could not run".to_string()
+            },
+            materials: fitted.materials.clone(),
+            notes: fitted.notes.clone(),
+        });
+    }
+
+    /// The method that answered `kind` under `method`, and the share the
+    /// photos pinned.
+    fn answered(&self, kind: Param, method: Method) -> (Method, Option<f32>) {
+        let share = self.constrained.and_then(|c| match kind {
+            Param::Basecolor => Some(c.basecolor),
+            Param::Roughness => Some(c.roughness),
+            Param::Metallic => Some(c.metallic),
+            _ => None,
+        });
+        match share {
+            Some(s) => (method, Some(s)),
+            None => (Method::Networks, None),
+        }
+    }
+}
+
+/// Replaces the estimated basecolor, roughness and metallic of `values`
+/// with the physical fit's (given and skipped values are held, and the
+/// fit solves basecolor under them).
+fn fit_values(
+    values: &mut Values,
+    plan: &Plan,
+    bundle: &Bundle,
+    calibration: &ScanCalibration,
+    inputs: &SceneInputs,
+    method: Method,
+    options: &FitOptions,
+) -> Result<Fitted, EstimateError> {
+    let n = inputs.pixels();
+    let estimated = |k: Param| *plan.decision(k) == Decision::Estimate;
+    let zeros = vec![0.0f32; n];
+    let transmission = values
+        .scalar
+        .get(&Param::Transmission)
+        .map_or(zeros.as_slice(), Vec::as_slice);
+    let known = Known {
+        roughness: (!estimated(Param::Roughness))
+            .then(|| values.scalar.get(&Param::Roughness).map(Vec::as_slice))
+            .flatten(),
+        metallic: (!estimated(Param::Metallic))
+            .then(|| values.scalar.get(&Param::Metallic).map(Vec::as_slice))
+            .flatten(),
+    };
+    let grey = vec![[0.5f32; 3]; n];
+    let half = vec![0.5f32; n];
+    let fallback = (method == Method::Hybrid).then(|| Fallback {
+        basecolor: values.basecolor.as_deref().unwrap_or(&grey),
+        roughness: values
+            .scalar
+            .get(&Param::Roughness)
+            .map_or(half.as_slice(), Vec::as_slice),
+        metallic: values
+            .scalar
+            .get(&Param::Metallic)
+            .map_or(zeros.as_slice(), Vec::as_slice),
+    });
+    let fitted = fit_scene(
+        bundle,
+        calibration,
+        inputs,
+        transmission,
+        known,
+        fallback,
+        options,
+    )?;
+    if estimated(Param::Basecolor) {
+        values.basecolor = Some(fitted.basecolor.clone());
+    }
+    if estimated(Param::Roughness) {
+        values
+            .scalar
+            .insert(Param::Roughness, fitted.roughness.clone());
+    }
+    if estimated(Param::Metallic) {
+        values
+            .scalar
+            .insert(Param::Metallic, fitted.metallic.clone());
+    }
+    Ok(fitted)
 }
 
 /// What the refinements of all positions did, together.

@@ -42,6 +42,7 @@ use anyhow::{bail, Context, Result};
 use burn::tensor::Device;
 use matscan_estimate::device::backend::{Backend, BackendError, CpuBackend};
 use matscan_estimate::net::weights::EMBEDDED;
+use matscan_estimate::pipeline::method::Method;
 use matscan_estimate::refine::RefineOptions;
 use matscan_estimate::GpuUnavailable;
 use matscan_estimate::{EstimateOptions, ModelSource, Models, NetConfig, ParamNet};
@@ -63,11 +64,15 @@ pub enum Knob {
     /// Iterations of the analysis-by-synthesis refinement after the
     /// networks (`matscan estimate --refine N`; 0 = networks only).
     Refine,
+    /// Who answers basecolor, roughness and metallic (`matscan estimate
+    /// --method`): networks, fit, hybrid.
+    Method,
 }
 
 impl Knob {
     /// Every knob, in table order.
-    pub const ALL: [Knob; 5] = [
+    pub const ALL: [Knob; 6] = [
+        Knob::Method,
         Knob::Views,
         Knob::Resolution,
         Knob::Width,
@@ -82,6 +87,7 @@ impl Knob {
             Knob::Width => "width",
             Knob::Backend => "backend",
             Knob::Refine => "refine",
+            Knob::Method => "method",
         }
     }
 
@@ -93,6 +99,7 @@ impl Knob {
             Knob::Width => [44, 160, 44],
             Knob::Backend => [148, 103, 189],
             Knob::Refine => [255, 127, 14],
+            Knob::Method => [23, 190, 207],
         }
     }
 }
@@ -104,7 +111,7 @@ impl std::str::FromStr for Knob {
             .into_iter()
             .find(|k| k.name() == s)
             .ok_or_else(|| {
-                format!("unknown knob `{s}`: expected views, resolution, width, backend or refine")
+                format!("unknown knob `{s}`: expected method, views, resolution, width, backend or refine")
             })
     }
 }
@@ -190,6 +197,8 @@ pub struct RowConfig {
     pub backend: Backend,
     /// Refinement iterations (0 = networks only).
     pub refine: u32,
+    /// Who answers basecolor, roughness and metallic.
+    pub method: Method,
 }
 
 /// The resolved sweep.
@@ -264,6 +273,7 @@ impl Sweep {
                 width_percent: 100,
                 backend: Backend::Cpu(matscan_estimate::device::backend::default_cpu_backend()),
                 refine: 0,
+                method: Method::default(),
             },
             sizes,
             views,
@@ -313,6 +323,10 @@ impl Sweep {
                 .refine
                 .iter()
                 .map(|&refine| (refine_label(refine), RowConfig { refine, ..base }))
+                .collect(),
+            Knob::Method => Method::ALL
+                .into_iter()
+                .map(|method| (method.to_string(), RowConfig { method, ..base }))
                 .collect(),
         }
     }
@@ -511,6 +525,7 @@ fn run_config(
                 iterations: config.refine,
                 ..RefineOptions::default()
             },
+            method: config.method,
             ..EstimateOptions::default()
         };
         match evaluate_scene(scan, models, &options, &device, GroupBy::Kind, None) {
@@ -556,7 +571,7 @@ pub struct Row {
 /// order the values are written in.
 pub fn csv_header() -> String {
     let mut header = String::from(
-        "knob,setting,size,views,width_scale,backend,refine_iterations,scenes,median_seconds,status",
+        "knob,setting,size,views,width_scale,backend,refine_iterations,method,scenes,median_seconds,status",
     );
     for kind in matscan_estimate::PIPELINE_ORDER {
         header.push_str(&format!(",{}_mad", kind.name()));
@@ -591,7 +606,7 @@ pub fn csv(rows: &[Row]) -> String {
         };
         let _ = write!(
             out,
-            "{},{},{},{},{},{},{},{scenes},{seconds},{}",
+            "{},{},{},{},{},{},{},{},{scenes},{seconds},{}",
             r.knob.name(),
             csv_field(&r.setting),
             c.size,
@@ -599,6 +614,7 @@ pub fn csv(rows: &[Row]) -> String {
             f64::from(c.width_percent) / 100.0,
             csv_field(&c.backend.label()),
             c.refine,
+            c.method,
             csv_field(&status),
         );
         for kind in matscan_estimate::PIPELINE_ORDER {
@@ -940,7 +956,7 @@ mod tests {
             lines[1]
         );
         assert!(
-            lines[2].contains(",2,cpu flex,0,3,6,untrained,,,,,"),
+            lines[2].contains(",2,cpu flex,0,networks,3,6,untrained,,,,,"),
             "{}",
             lines[2]
         );

@@ -145,6 +145,7 @@ pub(super) fn chained_configurations(
                     References::First
                 },
                 calib,
+                method: args.method,
                 ..EstimateOptions::default()
             };
             let textures = &mut c.textures;

@@ -27,6 +27,9 @@ pub struct EvalOptions {
     /// Also bake estimate and truth into UV textures of this many texels
     /// and score them in texture space and re-rendered.
     pub textures: Option<u32>,
+    /// Who answers basecolor, roughness and metallic in the chained
+    /// estimate (the truth-fed protocol measures the networks alone).
+    pub method: matscan_estimate::pipeline::method::Method,
 }
 
 /// The printed tables and the CSV of one evaluation.

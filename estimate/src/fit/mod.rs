@@ -1,0 +1,658 @@
+//! The physical fit: basecolor, roughness and metallic measured from the
+//! photos under the calibrated lights, without learning.
+//!
+//! 1. Every observation of a reference pixel in one place
+//!    ([`crate::refine::observe`]): from every position and every lit
+//!    capture with a calibrated light (the flashes and the projector's
+//!    uniform field), lit minus ambient at the ambient exposure, the light
+//!    per pixel `exposure · I · colour · level / (π d²)`, the local view
+//!    and light directions, and a trust that drops shadowed, saturated and
+//!    grazing views.
+//! 2. A cost volume ([`linear`]): for each (roughness, metallic) of a grid
+//!    the BSDF is affine in basecolor, so basecolor is solved in closed
+//!    form per pixel and channel, and the pixel's robust residual is
+//!    stored.
+//! 3. Materials ([`materials`]): pixels are split by their own best
+//!    answer's colour and metallic vote; each material's roughness and
+//!    metallic is the grid point with the least summed cost over all its
+//!    pixels (one pixel rarely sees a highlight, a material does), refined
+//!    between grid points by a parabola in ln roughness.
+//! 4. Basecolor per pixel in closed form at its material's roughness and
+//!    metallic.
+//!
+//! What the photos cannot pin is reported, not invented: a material's
+//! roughness is pinned when its cost curve over roughness has a clear
+//! minimum, metallic when one choice explains the photos clearly better,
+//! a pixel's basecolor when at least one observation counted. Where a
+//! [`Fallback`] is given (the networks' answer), unpinned values come
+//! from it.
+//!
+//! Transmission enters as a fixed input (the caller's map); subsurface is
+//! rendered as Burley diffuse by the model, as in the refinement.
+//!
+//! Boundaries: no file I/O and no networks; the pipeline hands in the
+//! scan's inputs and writes what comes back.
+
+pub mod linear;
+pub mod materials;
+
+use crate::pipeline::inputs::{SceneInputs, ViewPlanes};
+use crate::refine::loss::{view_weight, ViewEvidence};
+use crate::refine::model::{directions, Fixed, Observation};
+use crate::refine::observe::{calibrated_lighting, ViewLighting};
+use crate::refine::RefineError;
+use linear::{footprint_alpha2, responses, solve, solve_pulled, LinearFit, Noise, Pull, Sample};
+use materials::{feature, split, Feature, SplitOptions};
+use matscan_calib::ScanCalibration;
+use matscan_scan::Bundle;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::time::Instant;
+
+/// The roughness grid: log-spaced from 0.02 (just above the delta
+/// threshold, see `refine::model::ROUGHNESS_MIN`) to 1.
+pub fn roughness_grid() -> Vec<f32> {
+    const STEPS: usize = 16;
+    let (lo, hi) = (0.02f64.ln(), 0.0f64);
+    (0..STEPS)
+        .map(|k| (lo + (hi - lo) * k as f64 / (STEPS - 1) as f64).exp() as f32)
+        .collect()
+}
+
+/// Metallic is decided, not blended: real materials are metal or not (and
+/// every scene kind's truth is 0 or 1).
+pub const METALLIC_GRID: [f32; 2] = [0.0, 1.0];
+
+/// How the fit runs.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FitOptions {
+    pub noise: Noise,
+    pub split: SplitOptions,
+    /// Raw photo value at or above which a channel counts as clipped.
+    pub saturation: f32,
+    /// A material's roughness counts as pinned when the cost at the grid's
+    /// worst roughness exceeds the best by at least this fraction.
+    pub roughness_contrast: f64,
+    /// Metallic counts as pinned when the other choice costs at least this
+    /// fraction more.
+    pub metallic_contrast: f64,
+    /// Islands of another material up to about this radius in pixels
+    /// join the material around them (see [`mode_filter`]).
+    pub island_radius: usize,
+    /// Strength of the pull of a pixel's basecolor toward its material's
+    /// (see [`linear::Pull`]).
+    pub basecolor_pull: f64,
+}
+
+impl Default for FitOptions {
+    fn default() -> Self {
+        FitOptions {
+            noise: Noise::default(),
+            split: SplitOptions::default(),
+            saturation: 0.99,
+            roughness_contrast: 0.05,
+            metallic_contrast: 0.05,
+            island_radius: 2,
+            basecolor_pull: 2.0,
+        }
+    }
+}
+
+/// The values to use where the photos pin nothing (the networks' answer),
+/// per reference pixel.
+#[derive(Clone, Copy, Debug)]
+pub struct Fallback<'a> {
+    pub basecolor: &'a [[f32; 3]],
+    pub roughness: &'a [f32],
+    pub metallic: &'a [f32],
+}
+
+/// Values the fit must not change (given by the user, or skipped), per
+/// reference pixel: a material takes their median, and basecolor is solved
+/// under it.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Known<'a> {
+    pub roughness: Option<&'a [f32]>,
+    pub metallic: Option<&'a [f32]>,
+}
+
+/// What the fit found of one material.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MaterialFit {
+    /// Pixels of the reference image in the material.
+    pub pixels: usize,
+    /// Mean fitted basecolor.
+    pub basecolor: [f32; 3],
+    pub roughness: f32,
+    pub metallic: f32,
+    /// Whether the photos pinned roughness (else it is the fallback's
+    /// median, or the fit's flat best guess without a fallback).
+    pub roughness_pinned: bool,
+    pub metallic_pinned: bool,
+}
+
+/// Per parameter, the share of the object's pixels whose value the photos
+/// pinned.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Constrained {
+    pub basecolor: f32,
+    pub roughness: f32,
+    pub metallic: f32,
+}
+
+/// The fit of one reference image.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Fitted {
+    pub basecolor: Vec<[f32; 3]>,
+    pub roughness: Vec<f32>,
+    pub metallic: Vec<f32>,
+    /// Material index per pixel (`None` outside the mask or unfitted).
+    pub labels: Vec<Option<usize>>,
+    pub materials: Vec<MaterialFit>,
+    pub constrained: Constrained,
+    /// Per pixel, whether its basecolor was pinned by the photos.
+    pub pinned: Vec<bool>,
+    /// Views left out, and similar.
+    pub notes: Vec<String>,
+    pub seconds: f64,
+}
+
+/// One pixel's cost and basecolor at each grid point (metallic-major),
+/// from its own photos alone.
+struct Volume {
+    cost: Vec<f64>,
+    basecolor: Vec<[f32; 3]>,
+}
+
+/// Fits the reference image of `inputs`. `transmission` is the fixed
+/// transmission per pixel (the networks' or the user's).
+pub fn fit_scene(
+    bundle: &Bundle,
+    calibration: &ScanCalibration,
+    inputs: &SceneInputs,
+    transmission: &[f32],
+    known: Known<'_>,
+    fallback: Option<Fallback<'_>>,
+    options: &FitOptions,
+) -> Result<Fitted, RefineError> {
+    let t = Instant::now();
+    let mut notes = Vec::new();
+    let mut lighting: Vec<Option<ViewLighting>> = Vec::with_capacity(inputs.views.len());
+    for planes in &inputs.views {
+        let l = calibrated_lighting(
+            bundle,
+            calibration,
+            &inputs.reference,
+            planes,
+            options.saturation,
+        )?;
+        if l.is_none() {
+            notes.push(format!(
+                "view {}: the manifest gives no light intensity or a patterned light; left \
+                 out of the fit",
+                planes.view
+            ));
+        }
+        lighting.push(l);
+    }
+    let mask = &inputs.mask.data;
+    let mut fitted = fit_pixels(
+        mask,
+        inputs.width,
+        |i| samples(inputs, &lighting, i),
+        transmission,
+        known,
+        fallback,
+        options,
+    );
+    notes.append(&mut fitted.notes);
+    fitted.notes = notes;
+    fitted.seconds = t.elapsed().as_secs_f64();
+    Ok(fitted)
+}
+
+/// [`fit_scene`] for any source of observations: `observe(pixel)` returns
+/// the pixel's usable observations.
+pub fn fit_pixels<F>(
+    mask: &[bool],
+    width: usize,
+    observe: F,
+    transmission: &[f32],
+    known: Known<'_>,
+    fallback: Option<Fallback<'_>>,
+    options: &FitOptions,
+) -> Fitted
+where
+    F: Fn(usize) -> Vec<Sample> + Sync,
+{
+    let t = Instant::now();
+    let n = mask.len();
+    let grid = roughness_grid();
+    let fixed_at = |i: usize| Fixed {
+        transmission: transmission.get(i).copied().unwrap_or(0.0),
+    };
+    let observed: Vec<Vec<Sample>> = (0..n)
+        .into_par_iter()
+        .map(|i| if mask[i] { observe(i) } else { Vec::new() })
+        .collect();
+    let volumes: Vec<Option<Volume>> = observed
+        .par_iter()
+        .enumerate()
+        .map(|(i, obs)| {
+            if !mask[i] || obs.is_empty() {
+                return None;
+            }
+            let fixed = fixed_at(i);
+            let points = grid.len() * METALLIC_GRID.len();
+            let mut cost = Vec::with_capacity(points);
+            let mut basecolor = Vec::with_capacity(points);
+            let mut weight = 0.0;
+            for &m in &METALLIC_GRID {
+                for &r in &grid {
+                    let fit = solve(obs, &responses(obs, r, m, &fixed), &options.noise);
+                    cost.push(fit.cost);
+                    basecolor.push(fit.basecolor);
+                    weight = fit.weight;
+                }
+            }
+            (weight > 0.0).then_some(Volume { cost, basecolor })
+        })
+        .collect();
+
+    // Each pixel's apparent albedo (as a rough dielectric) places it among
+    // the materials: it needs no choice of roughness or metallic, which
+    // one pixel's few views cannot make.
+    let reference = grid
+        .iter()
+        .enumerate()
+        .min_by(|a, b| (a.1 - 0.5).abs().total_cmp(&(b.1 - 0.5).abs()))
+        .map_or(0, |(k, _)| k);
+    let features: Vec<Option<Feature>> = volumes
+        .iter()
+        .map(|v| Some(feature(v.as_ref()?.basecolor[reference])))
+        .collect();
+    let mut parts = split(&features, &options.split);
+    // A highlight is a few bright pixels inside its material: its own
+    // answer places it elsewhere, but it is the one place the material
+    // shows its roughness. A mode filter gives such islands back to the
+    // material around them.
+    parts.labels = mode_filter(&parts.labels, width, options.island_radius);
+    // Materials the filter emptied are dropped, the rest renumbered.
+    let mut renumber = vec![None; parts.count];
+    let mut next = 0;
+    for l in parts.labels.iter().flatten() {
+        if renumber[*l].is_none() {
+            renumber[*l] = Some(next);
+            next += 1;
+        }
+    }
+    for l in parts.labels.iter_mut() {
+        *l = l.and_then(|v| renumber[v]);
+    }
+    parts.count = next;
+
+    // A material's roughness and metallic: the grid point with the least
+    // cost summed over its pixels, each with its own best basecolor.
+    let points = grid.len() * METALLIC_GRID.len();
+    let mut materials = Vec::with_capacity(parts.count);
+    for j in 0..parts.count {
+        let list: Vec<usize> = (0..n).filter(|&i| parts.labels[i] == Some(j)).collect();
+        let mut total = vec![0.0f64; points];
+        for &i in &list {
+            if let Some(v) = &volumes[i] {
+                total.iter_mut().zip(&v.cost).for_each(|(t, c)| *t += c);
+            }
+        }
+        materials.push(choose(&total, &grid, &list, known, fallback, options));
+    }
+
+    // Basecolor per pixel at its material's roughness and metallic, first
+    // from its own photos alone; then pulled toward its material's
+    // information-weighted mean, which decides only where the photos say
+    // little of it (a glossy metal away from its highlights).
+    let own: Vec<Option<LinearFit>> = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            let m = &materials[parts.labels[i]?];
+            let obs = &observed[i];
+            let r = responses(obs, m.roughness, m.metallic, &fixed_at(i));
+            Some(solve(obs, &r, &options.noise))
+        })
+        .collect();
+    let mut means = vec![([0.0f64; 3], [0.0f64; 3]); materials.len()];
+    for (fit, label) in own.iter().zip(&parts.labels) {
+        if let (Some(f), Some(j)) = (fit, label) {
+            for c in 0..3 {
+                means[*j].0[c] += f.information[c] * f64::from(f.basecolor[c]);
+                means[*j].1[c] += f.information[c];
+            }
+        }
+    }
+    let means: Vec<[f32; 3]> = means
+        .iter()
+        .map(|(s, w)| {
+            std::array::from_fn(|c| {
+                if w[c] > 0.0 {
+                    (s[c] / w[c]) as f32
+                } else {
+                    0.5
+                }
+            })
+        })
+        .collect();
+    let results: Vec<Option<([f32; 3], f32, f32)>> = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            let j = parts.labels[i]?;
+            let m = &materials[j];
+            let obs = &observed[i];
+            let fit: LinearFit = solve_pulled(
+                obs,
+                &responses(obs, m.roughness, m.metallic, &fixed_at(i)),
+                &options.noise,
+                Some(Pull {
+                    mean: means[j],
+                    strength: options.basecolor_pull,
+                }),
+            );
+            Some((fit.basecolor, m.roughness, m.metallic))
+        })
+        .collect();
+
+    let mut out = Fitted {
+        basecolor: vec![[0.0; 3]; n],
+        roughness: vec![0.0; n],
+        metallic: vec![0.0; n],
+        labels: parts.labels.clone(),
+        materials: Vec::new(),
+        constrained: Constrained::default(),
+        pinned: vec![false; n],
+        notes: Vec::new(),
+        seconds: 0.0,
+    };
+    let object = mask.iter().filter(|&&m| m).count().max(1) as f32;
+    let (mut bc, mut rough, mut metal) = (0usize, 0usize, 0usize);
+    let mut sums = vec![([0.0f64; 3], 0usize); materials.len()];
+    for i in 0..n {
+        if !mask[i] {
+            continue;
+        }
+        match (results[i], parts.labels[i]) {
+            (Some((b, r, m)), Some(j)) => {
+                out.basecolor[i] = b;
+                out.roughness[i] = r;
+                out.metallic[i] = m;
+                out.pinned[i] = true;
+                bc += 1;
+                rough += usize::from(materials[j].roughness_pinned);
+                metal += usize::from(materials[j].metallic_pinned);
+                for (sum, v) in sums[j].0.iter_mut().zip(b) {
+                    *sum += f64::from(v);
+                }
+                sums[j].1 += 1;
+            }
+            _ => {
+                let (b, r, m) = match fallback {
+                    Some(f) => (
+                        f.basecolor.get(i).copied().unwrap_or([0.5; 3]),
+                        f.roughness.get(i).copied().unwrap_or(0.5),
+                        f.metallic.get(i).copied().unwrap_or(0.0),
+                    ),
+                    None => ([0.5; 3], 0.5, 0.0),
+                };
+                out.basecolor[i] = b;
+                out.roughness[i] = r;
+                out.metallic[i] = m;
+            }
+        }
+    }
+    for (m, (s, count)) in materials.iter_mut().zip(&sums) {
+        if *count > 0 {
+            m.basecolor = s.map(|v| (v / *count as f64) as f32);
+        }
+    }
+    out.constrained = Constrained {
+        basecolor: bc as f32 / object,
+        roughness: rough as f32 / object,
+        metallic: metal as f32 / object,
+    };
+    let unfitted = mask.iter().filter(|&&m| m).count() - bc;
+    if unfitted > 0 {
+        out.notes.push(format!(
+            "{unfitted} object pixels had no usable observation (shadowed, saturated or \
+             grazing in every view): {}",
+            if fallback.is_some() {
+                "the networks' values are kept there"
+            } else {
+                "basecolor 0.5, roughness 0.5, dielectric there"
+            }
+        ));
+    }
+    out.materials = materials;
+    out.seconds = t.elapsed().as_secs_f64();
+    out
+}
+
+/// Every usable view of reference pixel `i` (views whose lighting is
+/// `None` are left out), clipped channels marked: the refinement's
+/// observations, except that a saturated view is kept as a bound.
+pub fn samples(inputs: &SceneInputs, lighting: &[Option<ViewLighting>], i: usize) -> Vec<Sample> {
+    inputs
+        .views
+        .iter()
+        .zip(lighting)
+        .filter_map(|(planes, lighting)| {
+            let lighting = lighting.as_ref()?;
+            let lit = planes.lit()[i];
+            let ambient = planes.ambient()[i];
+            let weight = view_weight(&ViewEvidence {
+                visible: planes.mask[i] > 0.5,
+                lit: lighting.lit[i],
+                cos_nl: planes.cos_nl()[i],
+                cos_nv: planes.cos_nv()[i],
+                saturated: false,
+            });
+            if weight.is_nan() || weight <= 0.0 {
+                return None;
+            }
+            let clipped = [0, 1, 2].map(|c| lit[c].is_nan() || lit[c] >= lighting.clip);
+            let observed = [0, 1, 2].map(|c| {
+                let top = if clipped[c] { lighting.clip } else { lit[c] };
+                let d = top - ambient[c];
+                if d.is_finite() {
+                    d.max(0.0)
+                } else {
+                    0.0
+                }
+            });
+            let (wo, wi) = directions(planes.cos_nv()[i], planes.cos_nl()[i], planes.cos_vl()[i]);
+            Some(Sample {
+                observation: Observation {
+                    wo,
+                    wi,
+                    light: lighting.light[i],
+                    observed,
+                    weight,
+                },
+                clipped,
+                footprint: footprint_alpha2(half_angle_step(planes, inputs.width, i)),
+            })
+        })
+        .collect()
+}
+
+/// Each labelled pixel takes the most frequent label in the
+/// `(2 radius + 1)²` window around it (its own on a tie), twice: islands
+/// smaller than the window vanish, straight boundaries stay.
+pub fn mode_filter(labels: &[Option<usize>], width: usize, radius: usize) -> Vec<Option<usize>> {
+    if radius == 0 || width == 0 {
+        return labels.to_vec();
+    }
+    let height = labels.len() / width;
+    let count = labels.iter().flatten().max().map_or(0, |m| m + 1);
+    let mut current = labels.to_vec();
+    for _ in 0..2 {
+        let next: Vec<Option<usize>> = (0..current.len())
+            .into_par_iter()
+            .map(|i| {
+                let own = current[i]?;
+                let (x, y) = (i % width, i / width);
+                let mut votes = vec![0u32; count];
+                for yy in y.saturating_sub(radius)..(y + radius + 1).min(height) {
+                    for xx in x.saturating_sub(radius)..(x + radius + 1).min(width) {
+                        if let Some(l) = current[yy * width + xx] {
+                            votes[l] += 1;
+                        }
+                    }
+                }
+                let best = (0..count)
+                    .max_by_key(|&l| (votes[l], l == own))
+                    .unwrap_or(own);
+                Some(best)
+            })
+            .collect();
+        current = next;
+    }
+    current
+}
+
+/// The angle of the half-vector to the normal at pixel `i` of `planes`.
+fn half_angle(planes: &ViewPlanes, i: usize) -> Option<f32> {
+    if planes.mask[i].is_nan() || planes.mask[i] <= 0.5 {
+        return None;
+    }
+    let (wo, wi) = directions(planes.cos_nv()[i], planes.cos_nl()[i], planes.cos_vl()[i]);
+    let h = wo + wi;
+    let len = h.length();
+    (len > 1e-6).then(|| (h.z / len).clamp(-1.0, 1.0).acos())
+}
+
+/// How much the half-vector's angle changes from pixel `i` to its
+/// neighbours (the largest step to a neighbour the view sees; 0 alone).
+fn half_angle_step(planes: &ViewPlanes, width: usize, i: usize) -> f32 {
+    let Some(here) = half_angle(planes, i) else {
+        return 0.0;
+    };
+    let n = planes.mask.len();
+    let (x, y) = (i % width.max(1), i / width.max(1));
+    let mut step = 0.0f32;
+    let mut visit = |j: usize| {
+        if let Some(a) = half_angle(planes, j) {
+            step = step.max((a - here).abs());
+        }
+    };
+    if x > 0 {
+        visit(i - 1);
+    }
+    if x + 1 < width {
+        visit(i + 1);
+    }
+    if y > 0 {
+        visit(i - width);
+    }
+    if i + width < n {
+        visit(i + width);
+    }
+    // Half the step to either side: the footprint spans one pixel.
+    step
+}
+
+/// The index of the smallest finite value.
+fn argmin(v: &[f64]) -> Option<usize> {
+    v.iter()
+        .enumerate()
+        .filter(|(_, c)| c.is_finite())
+        .min_by(|a, b| a.1.total_cmp(b.1))
+        .map(|(i, _)| i)
+}
+
+/// A material's roughness and metallic from its summed cost volume.
+fn choose(
+    total: &[f64],
+    grid: &[f32],
+    members: &[usize],
+    known: Known<'_>,
+    fallback: Option<Fallback<'_>>,
+    options: &FitOptions,
+) -> MaterialFit {
+    let median = |v: &[f32]| -> Option<f32> {
+        let mut s: Vec<f32> = members
+            .iter()
+            .filter_map(|&i| v.get(i).copied())
+            .filter(|x| x.is_finite())
+            .collect();
+        if s.is_empty() {
+            return None;
+        }
+        s.sort_by(f32::total_cmp);
+        Some(s[s.len() / 2])
+    };
+    let r = grid.len();
+    let known_metallic = known
+        .metallic
+        .and_then(median)
+        .map(|m| usize::from(m >= 0.5));
+    let known_roughness = known.roughness.and_then(median);
+    let row_of = |m: usize| &total[m * r..(m + 1) * r];
+    let best_of = |m: usize| -> (usize, f64) {
+        let row = row_of(m);
+        let k = argmin(row).unwrap_or(r / 2);
+        (k, row[k])
+    };
+    let (dielectric, metal) = (best_of(0), best_of(1));
+    let m = known_metallic.unwrap_or(usize::from(metal.1 < dielectric.1));
+    let (k, best) = if m == 1 { metal } else { dielectric };
+    let other = if m == 1 { dielectric.1 } else { metal.1 };
+    let metallic_pinned =
+        known_metallic.is_some() || other > best * (1.0 + options.metallic_contrast) + 1e-9;
+    let row = row_of(m);
+    let worst = row.iter().copied().fold(0.0f64, f64::max);
+    let roughness_pinned =
+        known_roughness.is_some() || worst > best * (1.0 + options.roughness_contrast) + 1e-9;
+    let roughness = known_roughness.unwrap_or_else(|| parabola_minimum(row, grid, k));
+    let roughness = match (roughness_pinned, fallback) {
+        (false, Some(f)) => median(f.roughness).unwrap_or(roughness),
+        _ => roughness,
+    };
+    let metallic = match (metallic_pinned, fallback) {
+        (false, Some(f)) => {
+            if median(f.metallic).unwrap_or(0.0) >= 0.5 {
+                1.0
+            } else {
+                0.0
+            }
+        }
+        _ => METALLIC_GRID[m],
+    };
+    MaterialFit {
+        pixels: members.len(),
+        basecolor: [0.0; 3],
+        roughness,
+        metallic,
+        roughness_pinned,
+        metallic_pinned,
+    }
+}
+
+/// The minimum of the parabola through the grid costs around `k`, in ln
+/// roughness; the grid value itself at the ends or where the three points
+/// do not bend upward.
+fn parabola_minimum(row: &[f64], grid: &[f32], k: usize) -> f32 {
+    if k == 0 || k + 1 >= row.len() {
+        return grid[k.min(grid.len() - 1)];
+    }
+    let x = |i: usize| f64::from(grid[i]).ln();
+    let (x0, x1, x2) = (x(k - 1), x(k), x(k + 1));
+    let (y0, y1, y2) = (row[k - 1], row[k], row[k + 1]);
+    let d = (x0 - x1) * (x0 - x2) * (x1 - x2);
+    let a = (x2 * (y1 - y0) + x1 * (y0 - y2) + x0 * (y2 - y1)) / d;
+    let b = (x2 * x2 * (y0 - y1) + x1 * x1 * (y2 - y0) + x0 * x0 * (y1 - y2)) / d;
+    if a.is_nan() || a <= 0.0 || !b.is_finite() {
+        return grid[k];
+    }
+    let xm = (-b / (2.0 * a)).clamp(x0, x2);
+    (xm.exp() as f32).clamp(grid[0], 1.0)
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,74 @@
+//! Which estimator answers basecolor, roughness and metallic.
+//!
+//! Transmission and subsurface come from their networks under every
+//! method: the point-light photos the fit explains say little about them.
+
+use serde::{Deserialize, Serialize};
+use std::fmt;
+use std::str::FromStr;
+
+/// The estimator of basecolor, roughness and metallic.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Method {
+    /// The thesis's networks alone.
+    #[default]
+    Networks,
+    /// The physical fit ([`crate::fit`]) alone: where the photos pin
+    /// nothing, its own flat best guess.
+    Fit,
+    /// The physical fit, with the networks' answer where the photos pin
+    /// nothing (no highlight in a material, no usable view of a pixel).
+    Hybrid,
+}
+
+impl Method {
+    pub const ALL: [Method; 3] = [Method::Networks, Method::Fit, Method::Hybrid];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Networks => "networks",
+            Method::Fit => "fit",
+            Method::Hybrid => "hybrid",
+        }
+    }
+}
+
+impl fmt::Display for Method {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// A method name that is not one.
+#[derive(Debug, thiserror::Error)]
+#[error("unknown method {0:?}: expected networks, fit or hybrid")]
+pub struct UnknownMethod(pub String);
+
+impl FromStr for Method {
+    type Err = UnknownMethod;
+
+    fn from_str(s: &str) -> Result<Method, UnknownMethod> {
+        Method::ALL
+            .into_iter()
+            .find(|m| m.name() == s)
+            .ok_or_else(|| UnknownMethod(s.to_string()))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_round_trip_and_a_wrong_one_says_what_was_expected() {
+        for m in Method::ALL {
+            assert_eq!(m.name().parse::<Method>().ok(), Some(m));
+        }
+        let e = "physics".parse::<Method>().err().map(|e| e.to_string());
+        assert_eq!(
+            e.as_deref(),
+            Some("unknown method \"physics\": expected networks, fit or hybrid")
+        );
+    }
+}
