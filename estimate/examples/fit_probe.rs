@@ -29,16 +29,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .map(|p| calibrated_lighting(&bundle, &calibration, &inputs.reference, p, 0.99))
         .collect::<Result<_, _>>()?;
     let truth = |k: Param| bundle.truth_param(&inputs.reference, k);
-    let (bc, _) = truth(Param::Basecolor)?
+    let bc: Vec<[f32; 3]> = truth(Param::Basecolor)?
         .ok_or("no truth")?
         .flat()
         .0
-        .to_vec()
         .chunks(3)
-        .fold((Vec::new(), 0), |(mut v, n), c| {
-            v.push([c[0], c[1], c[2]]);
-            (v, n)
-        });
+        .map(|c| [c[0], c[1], c[2]])
+        .collect();
     let r = truth(Param::Roughness)?
         .ok_or("no truth")?
         .flat()
@@ -71,33 +68,25 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "{} observations; sum observed {total_obs:.2}, predicted at truth {total_pred:.2}",
         rows.len()
     );
+    type Row = (f32, f64, usize, usize, bool, f32);
+    let print = |title: &str, rows: &[Row]| {
+        println!("{title}:");
+        for r in rows.iter().take(15) {
+            println!(
+                "  px ({},{}) view {} obs {:.3} pred {:.3} clipped {} fp {:.5}",
+                r.2 % inputs.width,
+                r.2 / inputs.width,
+                r.3,
+                r.0,
+                r.1,
+                r.4,
+                r.5
+            );
+        }
+    };
     rows.sort_by(|a, b| b.0.total_cmp(&a.0));
-    println!("brightest observed:");
-    for r in rows.iter().take(15) {
-        println!(
-            "  px ({},{}) view {} obs {:.3} pred {:.3} clipped {} fp {:.5}",
-            r.2 % inputs.width,
-            r.2 / inputs.width,
-            r.3,
-            r.0,
-            r.1,
-            r.4,
-            r.5
-        );
-    }
+    print("brightest observed", &rows);
     rows.sort_by(|a, b| b.1.total_cmp(&a.1));
-    println!("brightest predicted:");
-    for r in rows.iter().take(15) {
-        println!(
-            "  px ({},{}) view {} obs {:.3} pred {:.3} clipped {} fp {:.5}",
-            r.2 % inputs.width,
-            r.2 / inputs.width,
-            r.3,
-            r.0,
-            r.1,
-            r.4,
-            r.5
-        );
-    }
+    print("brightest predicted", &rows);
     Ok(())
 }

@@ -312,15 +312,7 @@ mod tests {
             .into_iter()
             .map(|(nv, nl, vl)| {
                 let (wo, wi) = directions(nv, nl, vl);
-                let mut o = Observation {
-                    wo,
-                    wi,
-                    light: [2.0, 1.8, 1.5],
-                    observed: [0.0; 3],
-                    weight: 1.0,
-                };
-                o.observed = predict(&b, &o).map(|v| v as f32);
-                Sample::exact(o)
+                Sample::exact(Observation::rendered(&b, wo, wi, [2.0, 1.8, 1.5]))
             })
             .collect()
     }

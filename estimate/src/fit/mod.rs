@@ -37,11 +37,12 @@ pub mod linear;
 pub mod materials;
 
 use crate::pipeline::inputs::{SceneInputs, ViewPlanes};
-use crate::refine::loss::{view_weight, ViewEvidence};
-use crate::refine::model::{directions, Fixed, Observation};
-use crate::refine::observe::{calibrated_lighting, ViewLighting};
+use crate::refine::model::{directions, Fixed};
+use crate::refine::observe::{calibrated_lighting, seen, ViewLighting};
 use crate::refine::RefineError;
-use linear::{footprint_alpha2, responses, solve, solve_pulled, LinearFit, Noise, Pull, Sample};
+use linear::{
+    footprint_alpha2, responses, solve, solve_pulled, LinearFit, Noise, Pull, Response, Sample,
+};
 use materials::{feature, split, Feature, SplitOptions};
 use matscan_calib::ScanCalibration;
 use matscan_scan::Bundle;
@@ -150,8 +151,6 @@ pub struct Fitted {
     pub labels: Vec<Option<usize>>,
     pub materials: Vec<MaterialFit>,
     pub constrained: Constrained,
-    /// Per pixel, whether its basecolor was pinned by the photos.
-    pub pinned: Vec<bool>,
     /// Views left out, and similar.
     pub notes: Vec<String>,
     pub seconds: f64,
@@ -310,18 +309,19 @@ where
     // from its own photos alone; then pulled toward its material's
     // information-weighted mean, which decides only where the photos say
     // little of it (a glossy metal away from its highlights).
-    let own: Vec<Option<LinearFit>> = (0..n)
+    let own: Vec<Option<(Vec<Response>, LinearFit)>> = (0..n)
         .into_par_iter()
         .map(|i| {
             let m = &materials[parts.labels[i]?];
             let obs = &observed[i];
             let r = responses(obs, m.roughness, m.metallic, &fixed_at(i));
-            Some(solve(obs, &r, &options.noise))
+            let fit = solve(obs, &r, &options.noise);
+            Some((r, fit))
         })
         .collect();
     let mut means = vec![([0.0f64; 3], [0.0f64; 3]); materials.len()];
-    for (fit, label) in own.iter().zip(&parts.labels) {
-        if let (Some(f), Some(j)) = (fit, label) {
+    for (own, label) in own.iter().zip(&parts.labels) {
+        if let (Some((_, f)), Some(j)) = (own, label) {
             for c in 0..3 {
                 means[*j].0[c] += f.information[c] * f64::from(f.basecolor[c]);
                 means[*j].1[c] += f.information[c];
@@ -340,15 +340,16 @@ where
             })
         })
         .collect();
-    let results: Vec<Option<([f32; 3], f32, f32)>> = (0..n)
-        .into_par_iter()
-        .map(|i| {
+    let results: Vec<Option<([f32; 3], f32, f32)>> = own
+        .par_iter()
+        .enumerate()
+        .map(|(i, own)| {
+            let (r, _) = own.as_ref()?;
             let j = parts.labels[i]?;
             let m = &materials[j];
-            let obs = &observed[i];
             let fit: LinearFit = solve_pulled(
-                obs,
-                &responses(obs, m.roughness, m.metallic, &fixed_at(i)),
+                &observed[i],
+                r,
                 &options.noise,
                 Some(Pull {
                     mean: means[j],
@@ -366,7 +367,6 @@ where
         labels: parts.labels.clone(),
         materials: Vec::new(),
         constrained: Constrained::default(),
-        pinned: vec![false; n],
         notes: Vec::new(),
         seconds: 0.0,
     };
@@ -382,7 +382,6 @@ where
                 out.basecolor[i] = b;
                 out.roughness[i] = r;
                 out.metallic[i] = m;
-                out.pinned[i] = true;
                 bc += 1;
                 rough += usize::from(materials[j].roughness_pinned);
                 metal += usize::from(materials[j].metallic_pinned);
@@ -434,47 +433,29 @@ where
 }
 
 /// Every usable view of reference pixel `i` (views whose lighting is
-/// `None` are left out), clipped channels marked: the refinement's
-/// observations, except that a saturated view is kept as a bound.
+/// `None` are left out), clipped channels kept as bounds at their floor.
 pub fn samples(inputs: &SceneInputs, lighting: &[Option<ViewLighting>], i: usize) -> Vec<Sample> {
     inputs
         .views
         .iter()
         .zip(lighting)
         .filter_map(|(planes, lighting)| {
-            let lighting = lighting.as_ref()?;
-            let lit = planes.lit()[i];
-            let ambient = planes.ambient()[i];
-            let weight = view_weight(&ViewEvidence {
-                visible: planes.mask[i] > 0.5,
-                lit: lighting.lit[i],
-                cos_nl: planes.cos_nl()[i],
-                cos_nv: planes.cos_nv()[i],
-                saturated: false,
-            });
-            if weight.is_nan() || weight <= 0.0 {
+            let s = seen(planes, lighting.as_ref()?, i);
+            let mut observation = s.observation;
+            if observation.weight.is_nan() || observation.weight <= 0.0 {
                 return None;
             }
-            let clipped = [0, 1, 2].map(|c| lit[c].is_nan() || lit[c] >= lighting.clip);
-            let observed = [0, 1, 2].map(|c| {
-                let top = if clipped[c] { lighting.clip } else { lit[c] };
-                let d = top - ambient[c];
-                if d.is_finite() {
-                    d.max(0.0)
+            for c in 0..3 {
+                let value = if s.clipped[c] {
+                    s.floor[c]
                 } else {
-                    0.0
-                }
-            });
-            let (wo, wi) = directions(planes.cos_nv()[i], planes.cos_nl()[i], planes.cos_vl()[i]);
+                    observation.observed[c]
+                };
+                observation.observed[c] = value.max(0.0);
+            }
             Some(Sample {
-                observation: Observation {
-                    wo,
-                    wi,
-                    light: lighting.light[i],
-                    observed,
-                    weight,
-                },
-                clipped,
+                observation,
+                clipped: s.clipped,
                 footprint: footprint_alpha2(half_angle_step(planes, inputs.width, i)),
             })
         })

@@ -3,7 +3,7 @@
 
 use super::linear::Sample;
 use super::*;
-use crate::refine::model::{bsdf, predict, Params};
+use crate::refine::model::{bsdf, Observation, Params};
 use glam::Vec3;
 
 /// A local frame with `n` as +Z.
@@ -51,15 +51,7 @@ fn observe(i: usize, side: usize, truth: &dyn Fn(usize) -> Params) -> Vec<Sample
             if wo.z <= 0.05 || wi.z <= 0.05 {
                 return None;
             }
-            let mut o = Observation {
-                wo,
-                wi,
-                light: [1.5; 3],
-                observed: [0.0; 3],
-                weight: 1.0,
-            };
-            o.observed = predict(&b, &o).map(|v| v as f32);
-            Some(Sample::exact(o))
+            Some(Sample::exact(Observation::rendered(&b, wo, wi, [1.5; 3])))
         })
         .collect()
 }
@@ -189,15 +181,7 @@ fn a_material_seen_from_one_angle_only_leaves_roughness_to_the_fallback() {
     let observe = |_: usize| -> Vec<Sample> {
         let wo = Vec3::new(0.3f32.sin(), 0.0, 0.3f32.cos());
         let wi = Vec3::new(-(1.2f32).sin(), 0.0, 1.2f32.cos());
-        let mut o = Observation {
-            wo,
-            wi,
-            light: [1.0; 3],
-            observed: [0.0; 3],
-            weight: 1.0,
-        };
-        o.observed = predict(&b, &o).map(|v| v as f32);
-        vec![Sample::exact(o)]
+        vec![Sample::exact(Observation::rendered(&b, wo, wi, [1.0; 3]))]
     };
     let fallback_r = vec![0.33; n];
     let fitted = fit_pixels(

@@ -124,6 +124,22 @@ pub struct Observation {
     pub weight: f32,
 }
 
+impl Observation {
+    /// The observation `bsdf` itself would produce (full trust): what
+    /// synthetic tests of a fit feed it.
+    pub fn rendered(bsdf: &Bsdf, wo: Vec3, wi: Vec3, light: [f32; 3]) -> Observation {
+        let mut o = Observation {
+            wo,
+            wi,
+            light,
+            observed: [0.0; 3],
+            weight: 1.0,
+        };
+        o.observed = predict(bsdf, &o).map(|v| v as f32);
+        o
+    }
+}
+
 /// Local-frame directions from the calibration cosines: `wo` in the XZ
 /// plane, `wi` at the azimuth whose cosine is `cos_vl`. Non-finite cosines
 /// count as 0; cosines are clamped to [-1, 1].

@@ -148,8 +148,47 @@ pub fn clip_level(planes: &ViewPlanes, saturation: f32) -> f32 {
     saturation * exposure_scale(planes.ambient_exposure(), planes.lit_exposure())
 }
 
+/// One view of one pixel as the photos show it, before deciding what a
+/// clipped channel means.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Seen {
+    /// Lit minus ambient as measured, and the trust of an unclipped view.
+    pub observation: Observation,
+    /// Per channel: the lit photo reached the clipping level (or is NaN).
+    pub clipped: [bool; 3],
+    /// Per channel: the clipping level minus ambient, the least that a
+    /// clipped channel's lit minus ambient would have been.
+    pub floor: [f32; 3],
+}
+
+/// View `planes` of reference pixel `i` under `lighting`.
+pub fn seen(planes: &ViewPlanes, lighting: &ViewLighting, i: usize) -> Seen {
+    let lit = planes.lit()[i];
+    let ambient = planes.ambient()[i];
+    let weight = view_weight(&ViewEvidence {
+        visible: planes.mask[i] > 0.5,
+        lit: lighting.lit[i],
+        cos_nl: planes.cos_nl()[i],
+        cos_nv: planes.cos_nv()[i],
+        saturated: false,
+    });
+    let finite = |d: f32| if d.is_finite() { d } else { 0.0 };
+    let (wo, wi) = directions(planes.cos_nv()[i], planes.cos_nl()[i], planes.cos_vl()[i]);
+    Seen {
+        observation: Observation {
+            wo,
+            wi,
+            light: lighting.light[i],
+            observed: [0, 1, 2].map(|c| finite(lit[c] - ambient[c])),
+            weight,
+        },
+        clipped: lit.map(|v| v.is_nan() || v >= lighting.clip),
+        floor: ambient.map(|a| finite(lighting.clip - a)),
+    }
+}
+
 /// Every view's observation of reference pixel `i` (views whose lighting
-/// is `None` are left out).
+/// is `None` are left out); a view with a clipped channel gets weight 0.
 pub fn observations(
     inputs: &SceneInputs,
     lighting: &[Option<ViewLighting>],
@@ -160,32 +199,12 @@ pub fn observations(
         .iter()
         .zip(lighting)
         .filter_map(|(planes, lighting)| {
-            let lighting = lighting.as_ref()?;
-            let lit = planes.lit()[i];
-            let ambient = planes.ambient()[i];
-            let evidence = ViewEvidence {
-                visible: planes.mask[i] > 0.5,
-                lit: lighting.lit[i],
-                cos_nl: planes.cos_nl()[i],
-                cos_nv: planes.cos_nv()[i],
-                saturated: lit.iter().any(|&v| v.is_nan() || v >= lighting.clip),
-            };
-            let (wo, wi) = directions(planes.cos_nv()[i], planes.cos_nl()[i], planes.cos_vl()[i]);
-            let observed = [0, 1, 2].map(|c| {
-                let d = lit[c] - ambient[c];
-                if d.is_finite() {
-                    d
-                } else {
-                    0.0
-                }
-            });
-            Some(Observation {
-                wo,
-                wi,
-                light: lighting.light[i],
-                observed,
-                weight: view_weight(&evidence),
-            })
+            let s = seen(planes, lighting.as_ref()?, i);
+            let mut o = s.observation;
+            if s.clipped.iter().any(|&c| c) {
+                o.weight = 0.0;
+            }
+            Some(o)
         })
         .collect()
 }
