@@ -6,6 +6,7 @@
 
 mod common;
 mod estimate_pipeline;
+mod mitsuba_tiny;
 mod recipe_shards;
 mod simulate_then_calibrate;
 mod stability_bsdf;

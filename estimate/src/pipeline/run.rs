@@ -370,8 +370,11 @@ pub fn estimate_prepared(
         left_out: set.left_out.clone(),
         warnings,
         params,
+        // The networks that ran: under `fit` the fitted parameters' are
+        // loaded but not used.
         models: kinds
             .iter()
+            .filter(|k| runs.contains_key(*k))
             .filter_map(|k| models.get(*k).map(|m| (k.name().to_string(), m.id.clone())))
             .collect(),
         timings,
@@ -399,6 +402,22 @@ fn run_networks(
     inputs: &SceneInputs,
     device: &Device,
 ) -> Result<(Values, NetRuns), EstimateError> {
+    let mut values = held_values(plan, inputs)?;
+    let mut runs = BTreeMap::new();
+    run_stages(
+        plan,
+        plan.stages(),
+        models,
+        inputs,
+        &mut values,
+        device,
+        &mut runs,
+    )?;
+    Ok((values, runs))
+}
+
+/// Values with every given and skipped parameter set, nothing estimated.
+fn held_values(plan: &Plan, inputs: &SceneInputs) -> Result<Values, EstimateError> {
     let t = Instant::now();
     let mut values = Values::default();
     for kind in crate::net::spec::PIPELINE_ORDER {
@@ -409,15 +428,38 @@ fn run_networks(
         }
     }
     values.given_s = t.elapsed().as_secs_f64();
-    let mut runs = BTreeMap::new();
-    for stage in plan.stages() {
-        let results = run_stage(stage, models, inputs, &values, device)?;
+    Ok(values)
+}
+
+/// Runs `stages` of networks in order, storing each answer in `values`.
+fn run_stages(
+    plan: &Plan,
+    stages: &[Vec<Param>],
+    models: &Models,
+    inputs: &SceneInputs,
+    values: &mut Values,
+    device: &Device,
+    runs: &mut NetRuns,
+) -> Result<(), EstimateError> {
+    for stage in stages {
+        if stage.is_empty() {
+            continue;
+        }
+        let results = run_stage(stage, models, inputs, values, device)?;
         for run in results {
             runs.insert(run.kind, (run.views, run.seconds));
-            store(&mut values, plan, run, inputs);
+            store(values, plan, run, inputs);
         }
     }
-    Ok((values, runs))
+    Ok(())
+}
+
+/// The plan's networks among `kinds`, stage by stage.
+fn stages_of(plan: &Plan, kinds: &[Param]) -> Vec<Vec<Param>> {
+    plan.stages()
+        .iter()
+        .map(|s| s.iter().copied().filter(|k| kinds.contains(k)).collect())
+        .collect()
 }
 
 /// What every reference position's maps are made with.
@@ -441,19 +483,47 @@ impl Pass<'_> {
         tally: &mut RefineTally,
         fits: &mut FitTally,
     ) -> Result<(PositionMaps, NetRuns, f64), EstimateError> {
-        let (mut values, runs) = run_networks(self.plan, self.models, inputs, self.device)?;
-        if self.method != Method::Networks {
-            let fitted = fit_values(
-                &mut values,
-                self.plan,
-                self.bundle,
-                self.calibration,
-                inputs,
-                self.method,
-                self.fit,
-            )?;
-            fits.add(self.method, &fitted, self.bundle, inputs);
-        }
+        let (values, runs) = match self.method {
+            Method::Networks => run_networks(self.plan, self.models, inputs, self.device)?,
+            Method::Hybrid => {
+                let (mut values, runs) = run_networks(self.plan, self.models, inputs, self.device)?;
+                let fitted = self.fit_values(&mut values, inputs)?;
+                fits.add(self.method, &fitted, self.bundle, inputs);
+                (values, runs)
+            }
+            Method::Fit => {
+                // Only the networks of what the fit does not measure run:
+                // transmission before the fit (the fit renders under it),
+                // subsurface after (it reads the fitted metallic).
+                let mut values = held_values(self.plan, inputs)?;
+                let mut runs = BTreeMap::new();
+                let before = stages_of(self.plan, &[Param::Transmission]);
+                let after = stages_of(self.plan, &[Param::Subsurface]);
+                let (models, device) = (self.models, self.device);
+                run_stages(
+                    self.plan,
+                    &before,
+                    models,
+                    inputs,
+                    &mut values,
+                    device,
+                    &mut runs,
+                )?;
+                let fitted = self.fit_values(&mut values, inputs)?;
+                fits.add(self.method, &fitted, self.bundle, inputs);
+                run_stages(
+                    self.plan,
+                    &after,
+                    models,
+                    inputs,
+                    &mut values,
+                    device,
+                    &mut runs,
+                )?;
+                (values, runs)
+            }
+        };
+        let mut values = values;
         let confidence = refine_values(
             &mut values,
             self.plan,
@@ -468,6 +538,24 @@ impl Pass<'_> {
             maps: written_maps(self.plan, &values, inputs, confidence)?,
         };
         Ok((maps, runs, values.given_s))
+    }
+}
+
+impl Pass<'_> {
+    fn fit_values(
+        &self,
+        values: &mut Values,
+        inputs: &SceneInputs,
+    ) -> Result<Fitted, EstimateError> {
+        fit_values(
+            values,
+            self.plan,
+            self.bundle,
+            self.calibration,
+            inputs,
+            self.method,
+            self.fit,
+        )
     }
 }
 

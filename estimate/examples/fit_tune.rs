@@ -1,0 +1,149 @@
+//! The physical fit alone on every simulated scan under a folder, against
+//! the truth: per scan the MAD of basecolor, roughness and metallic over
+//! the object, and per fitted material its answer beside the truth of its
+//! pixels (median). Transmission is fed its truth, so the numbers are the
+//! fit's own. A development probe for tuning the fit on the `tune` set,
+//! not part of the product (`matscan eval --method fit` is the measure).
+//!
+//!   cargo run --release -p matscan-estimate --example fit_tune -- DIR [--quiet]
+//!       [--basecolor-pull P]
+
+use matscan_calib::{calibrate_bundle, CalibOptions};
+use matscan_estimate::fit::{fit_scene, FitOptions, Known};
+use matscan_estimate::pipeline::inputs::SceneInputs;
+use matscan_estimate::pipeline::views::{select_views, ViewFilter};
+use matscan_scan::{Bundle, Param};
+use std::path::{Path, PathBuf};
+
+fn scans(dir: &Path, out: &mut Vec<PathBuf>) {
+    if dir.join("scan.toml").exists() {
+        out.push(dir.to_path_buf());
+        return;
+    }
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    let mut dirs: Vec<PathBuf> = entries
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| p.is_dir())
+        .collect();
+    dirs.sort();
+    for d in dirs {
+        scans(&d, out);
+    }
+}
+
+fn median(mut v: Vec<f32>) -> f32 {
+    if v.is_empty() {
+        return f32::NAN;
+    }
+    v.sort_by(f32::total_cmp);
+    v[v.len() / 2]
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().collect();
+    let root = Path::new(
+        args.get(1)
+            .ok_or("usage: fit_tune DIR [--quiet] [--basecolor-pull P]")?,
+    );
+    let quiet = args.iter().any(|a| a == "--quiet");
+    let mut list = Vec::new();
+    scans(root, &mut list);
+    let mut options = FitOptions::default();
+    let value = |flag: &str| -> Option<f64> {
+        let k = args.iter().position(|a| a == flag)?;
+        args.get(k + 1)?.parse().ok()
+    };
+    if let Some(v) = value("--basecolor-pull") {
+        options.basecolor_pull = v;
+    }
+    let mut table: Vec<(String, [f64; 3], f64)> = Vec::new();
+    for scan in &list {
+        let bundle = Bundle::open(scan)?;
+        let calibration = calibrate_bundle(&bundle, &CalibOptions::default())?;
+        let set = select_views(&bundle.manifest, &calibration, &ViewFilter::default())?;
+        let inputs = SceneInputs::assemble(&bundle, &calibration, &set)?;
+        let truth = |k: Param| -> Result<Vec<f32>, Box<dyn std::error::Error>> {
+            Ok(bundle
+                .truth_param(&inputs.reference, k)?
+                .ok_or("no truth")?
+                .flat()
+                .0
+                .to_vec())
+        };
+        let (bc, r, m, t) = (
+            truth(Param::Basecolor)?,
+            truth(Param::Roughness)?,
+            truth(Param::Metallic)?,
+            truth(Param::Transmission)?,
+        );
+        let fitted = fit_scene(
+            &bundle,
+            &calibration,
+            &inputs,
+            &t,
+            Known::default(),
+            None,
+            &options,
+        )?;
+        let mask = &inputs.mask.data;
+        let count = mask.iter().filter(|&&v| v).count().max(1) as f64;
+        let mut mad = [0.0f64; 3];
+        for i in (0..mask.len()).filter(|&i| mask[i]) {
+            let b: f32 = (0..3)
+                .map(|c| (fitted.basecolor[i][c] - bc[3 * i + c]).abs())
+                .sum::<f32>()
+                / 3.0;
+            mad[0] += f64::from(b);
+            mad[1] += f64::from((fitted.roughness[i] - r[i]).abs());
+            mad[2] += f64::from((fitted.metallic[i] - m[i]).abs());
+        }
+        let mad = mad.map(|v| v / count);
+        let name = scan
+            .strip_prefix(root)
+            .unwrap_or(scan)
+            .display()
+            .to_string();
+        println!(
+            "{name:40} basecolor {:.3} roughness {:.3} metallic {:.3}  {:.2} s",
+            mad[0], mad[1], mad[2], fitted.seconds
+        );
+        if !quiet {
+            for (j, mat) in fitted.materials.iter().enumerate() {
+                let members: Vec<usize> = (0..mask.len())
+                    .filter(|&i| fitted.labels[i] == Some(j))
+                    .collect();
+                let tr = median(members.iter().map(|&i| r[i]).collect());
+                let tm = median(members.iter().map(|&i| m[i]).collect());
+                let tb: [f32; 3] = std::array::from_fn(|c| {
+                    median(members.iter().map(|&i| bc[3 * i + c]).collect())
+                });
+                println!(
+                    "    material {j}: {:5} px  roughness {:.3} (truth {:.3}{})  metallic {} (truth {})  basecolor {:.2?} (truth {:.2?})",
+                    mat.pixels,
+                    mat.roughness,
+                    tr,
+                    if mat.roughness_pinned { "" } else { ", unpinned" },
+                    mat.metallic,
+                    tm,
+                    mat.basecolor,
+                    tb
+                );
+            }
+        }
+        table.push((name, mad, fitted.seconds));
+    }
+    let n = table.len().max(1) as f64;
+    let mean: [f64; 3] = std::array::from_fn(|k| table.iter().map(|t| t.1[k]).sum::<f64>() / n);
+    println!(
+        "MEAN over {} scans: basecolor {:.4} roughness {:.4} metallic {:.4}  median {:.2} s",
+        table.len(),
+        mean[0],
+        mean[1],
+        mean[2],
+        median(table.iter().map(|t| t.2 as f32).collect())
+    );
+    Ok(())
+}
