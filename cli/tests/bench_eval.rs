@@ -64,6 +64,7 @@ fn bench_quick_writes_a_row_per_setting_with_finite_figures_and_a_png() {
             ("method", "networks"),
             ("method", "fit"),
             ("method", "hybrid"),
+            ("method", "fit-metallic"),
             ("views", "1 view"),
             ("views", "all views"),
             ("resolution", "32 px"),

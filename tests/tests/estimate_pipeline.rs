@@ -2,6 +2,7 @@
 //! random networks: what it writes, what it runs, what it skips and why.
 
 use matscan_estimate::net::models::weights_file_name;
+use matscan_estimate::pipeline::method::Method;
 use matscan_estimate::pipeline::metrics::PSNR_CAP;
 use matscan_estimate::pipeline::output::ResultFile;
 use matscan_estimate::pipeline::plan::Given;
@@ -504,4 +505,56 @@ fn the_gpu_backend_writes_the_maps_the_cpu_writes() {
         compared += 1;
     }
     assert_eq!(compared, matscan_estimate::PIPELINE_ORDER.len());
+}
+
+#[test]
+fn the_fit_runs_only_the_networks_it_does_not_replace() {
+    let dir = tempfile::tempdir().unwrap();
+    let scan = scan_copy(dir.path());
+    let options = EstimateOptions {
+        method: Method::Fit,
+        out: Some(dir.path().join("out")),
+        ..EstimateOptions::default()
+    };
+    let result = run(&scan, &options).unwrap();
+    assert_eq!(ran(&result), vec!["subsurface", "transmission"]);
+    assert_eq!(
+        result.models.keys().collect::<Vec<_>>(),
+        vec!["subsurface", "transmission"]
+    );
+    for kind in [Param::Basecolor, Param::Roughness, Param::Metallic] {
+        let entry = result.param(kind).unwrap();
+        assert_eq!(entry.method.as_deref(), Some("fit"), "{kind:?}");
+        assert!(entry.model.is_none(), "{kind:?}");
+    }
+    assert_eq!(result.fit.as_ref().map(|f| f.method), Some(Method::Fit));
+}
+
+#[test]
+fn fit_metallic_replaces_the_metallic_network_and_feeds_the_others() {
+    let dir = tempfile::tempdir().unwrap();
+    let scan = scan_copy(dir.path());
+    let options = EstimateOptions {
+        method: Method::FitMetallic,
+        out: Some(dir.path().join("out")),
+        ..EstimateOptions::default()
+    };
+    let result = run(&scan, &options).unwrap();
+    assert_eq!(
+        ran(&result),
+        vec!["basecolor", "roughness", "subsurface", "transmission"]
+    );
+    let metallic = result.param(Param::Metallic).unwrap();
+    assert_eq!(metallic.method.as_deref(), Some("fit"));
+    assert!(metallic.model.is_none());
+    let share = metallic.constrained.expect("the fit says what it pinned");
+    assert!((0.0..=1.0).contains(&share), "{share}");
+    for kind in [Param::Basecolor, Param::Roughness] {
+        let entry = result.param(kind).unwrap();
+        assert_eq!(entry.method.as_deref(), Some("networks"), "{kind:?}");
+        assert!(entry.model.is_some(), "{kind:?}");
+    }
+    // The fit decides metallic per pixel as 0 or 1.
+    let map = read_scalar_exr(&dir.path().join("out/p0/metallic.exr")).unwrap();
+    assert!(map.data.iter().all(|&v| v == 0.0 || v == 1.0));
 }

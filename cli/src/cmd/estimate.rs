@@ -65,9 +65,10 @@ pub struct EstimateArgs {
     pub refine: u32,
     /// Who answers basecolor, roughness and metallic: networks (the
     /// thesis's), fit (the physical fit to the photos under the calibrated
-    /// lights) or hybrid (the fit where the photos pin a value, the
-    /// networks elsewhere). Transmission and subsurface come from their
-    /// networks under every method.
+    /// lights), hybrid (the fit where the photos pin a value, the networks
+    /// elsewhere) or fit-metallic (the fit decides metallic per material,
+    /// the networks answer basecolor and roughness fed it). Transmission
+    /// and subsurface come from their networks under every method.
     #[arg(long, default_value_t = Method::default())]
     pub method: Method,
     /// Where the networks run: cpu (the build's default CPU backend), flex,

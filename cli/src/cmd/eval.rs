@@ -54,7 +54,8 @@ pub struct EvalArgs {
     #[arg(long, value_name = "SIZE", num_args = 0..=1, default_missing_value = "256")]
     pub textures: Option<u32>,
     /// Who answers basecolor, roughness and metallic in the chained
-    /// estimate: networks, fit or hybrid (see `matscan estimate --help`).
+    /// estimate: networks, fit, hybrid or fit-metallic (see `matscan
+    /// estimate --help`).
     /// The truth-fed protocol measures the networks alone.
     #[arg(long, default_value_t = Method::default())]
     pub method: Method,

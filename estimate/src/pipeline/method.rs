@@ -20,16 +20,27 @@ pub enum Method {
     /// The physical fit, with the networks' answer where the photos pin
     /// nothing (no highlight in a material, no usable view of a pixel).
     Hybrid,
+    /// The physical fit decides metallic per material; the networks then
+    /// answer basecolor and roughness (and subsurface) fed that metallic,
+    /// as they are fed the metallic network's in the thesis's chain.
+    #[serde(rename = "fit-metallic")]
+    FitMetallic,
 }
 
 impl Method {
-    pub const ALL: [Method; 3] = [Method::Networks, Method::Fit, Method::Hybrid];
+    pub const ALL: [Method; 4] = [
+        Method::Networks,
+        Method::Fit,
+        Method::Hybrid,
+        Method::FitMetallic,
+    ];
 
     pub fn name(self) -> &'static str {
         match self {
             Method::Networks => "networks",
             Method::Fit => "fit",
             Method::Hybrid => "hybrid",
+            Method::FitMetallic => "fit-metallic",
         }
     }
 }
@@ -42,7 +53,7 @@ impl fmt::Display for Method {
 
 /// A method name that is not one.
 #[derive(Debug, thiserror::Error)]
-#[error("unknown method {0:?}: expected networks, fit or hybrid")]
+#[error("unknown method {0:?}: expected networks, fit, hybrid or fit-metallic")]
 pub struct UnknownMethod(pub String);
 
 impl FromStr for Method {
@@ -68,7 +79,7 @@ mod tests {
         let e = "physics".parse::<Method>().err().map(|e| e.to_string());
         assert_eq!(
             e.as_deref(),
-            Some("unknown method \"physics\": expected networks, fit or hybrid")
+            Some("unknown method \"physics\": expected networks, fit, hybrid or fit-metallic")
         );
     }
 }

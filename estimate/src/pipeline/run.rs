@@ -69,7 +69,7 @@ pub struct EstimateOptions {
     pub refine: RefineOptions,
     /// Who answers basecolor, roughness and metallic.
     pub method: Method,
-    /// The physical fit's settings (for `Method::Fit` and `Hybrid`).
+    /// The physical fit's settings (for every method but `Networks`).
     pub fit: FitOptions,
 }
 
@@ -522,6 +522,40 @@ impl Pass<'_> {
                 )?;
                 (values, runs)
             }
+            Method::FitMetallic => {
+                // The metallic network gives way to the fit's decision per
+                // material; every other network runs in its usual order,
+                // those after metallic fed the fit's.
+                let mut values = held_values(self.plan, inputs)?;
+                let mut runs = BTreeMap::new();
+                let before = stages_of(self.plan, &[Param::Transmission]);
+                let after = stages_of(
+                    self.plan,
+                    &[Param::Subsurface, Param::Roughness, Param::Basecolor],
+                );
+                let (models, device) = (self.models, self.device);
+                run_stages(
+                    self.plan,
+                    &before,
+                    models,
+                    inputs,
+                    &mut values,
+                    device,
+                    &mut runs,
+                )?;
+                let fitted = self.fit_values(&mut values, inputs)?;
+                fits.add(self.method, &fitted, self.bundle, inputs);
+                run_stages(
+                    self.plan,
+                    &after,
+                    models,
+                    inputs,
+                    &mut values,
+                    device,
+                    &mut runs,
+                )?;
+                (values, runs)
+            }
         };
         let mut values = values;
         let confidence = refine_values(
@@ -598,9 +632,11 @@ impl FitTally {
             Param::Metallic => Some(c.metallic),
             _ => None,
         });
-        match share {
-            Some(s) => (method, Some(s)),
-            None => (Method::Networks, None),
+        match (share, method) {
+            (Some(s), Method::FitMetallic) if kind == Param::Metallic => (Method::Fit, Some(s)),
+            (Some(_), Method::FitMetallic) => (Method::Networks, None),
+            (Some(s), _) => (method, Some(s)),
+            (None, _) => (Method::Networks, None),
         }
     }
 }
