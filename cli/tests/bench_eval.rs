@@ -98,13 +98,17 @@ fn bench_quick_writes_a_row_per_setting_with_finite_figures_and_a_png() {
         }
     }
     // Every view and 32 px are both the base configuration, measured once.
+    let row = |knob: &str, setting: &str| {
+        let k = keys.iter().position(|k| *k == (knob, setting)).unwrap();
+        &rows[k]
+    };
     assert_eq!(
-        rows[4][col("median_seconds")],
-        rows[5][col("median_seconds")]
+        row("views", "all views")[col("median_seconds")],
+        row("resolution", "32 px")[col("median_seconds")]
     );
-    assert_eq!(rows[5][col("status")], "measured");
-    assert!(rows[8][col("status")].starts_with("not built"));
-    assert_eq!(rows[8][col("median_seconds")], "");
+    assert_eq!(row("resolution", "32 px")[col("status")], "measured");
+    assert!(row("backend", "gpu")[col("status")].starts_with("not built"));
+    assert_eq!(row("backend", "gpu")[col("median_seconds")], "");
 
     let png = image::open(out.join("bench.png")).unwrap().to_rgb8();
     assert!(png.width() >= 800 && png.height() >= 400);

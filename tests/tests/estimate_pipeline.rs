@@ -540,9 +540,16 @@ fn fit_metallic_replaces_the_metallic_network_and_feeds_the_others() {
         ..EstimateOptions::default()
     };
     let result = run(&scan, &options).unwrap();
+    // The metallic network still runs: subsurface reads its answer.
     assert_eq!(
         ran(&result),
-        vec!["basecolor", "roughness", "subsurface", "transmission"]
+        vec![
+            "basecolor",
+            "metallic",
+            "roughness",
+            "subsurface",
+            "transmission"
+        ]
     );
     let metallic = result.param(Param::Metallic).unwrap();
     assert_eq!(metallic.method.as_deref(), Some("fit"));

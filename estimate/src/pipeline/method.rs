@@ -21,8 +21,9 @@ pub enum Method {
     /// nothing (no highlight in a material, no usable view of a pixel).
     Hybrid,
     /// The physical fit decides metallic per material; the networks then
-    /// answer basecolor and roughness (and subsurface) fed that metallic,
-    /// as they are fed the metallic network's in the thesis's chain.
+    /// answer basecolor and roughness fed that metallic, as the thesis's
+    /// chain feeds them the metallic network's. Subsurface stays fed the
+    /// metallic network's answer, which measured better for it.
     #[serde(rename = "fit-metallic")]
     FitMetallic,
 }
