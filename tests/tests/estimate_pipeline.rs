@@ -552,8 +552,7 @@ fn fit_metallic_replaces_the_metallic_network_and_feeds_the_others() {
         ]
     );
     let metallic = result.param(Param::Metallic).unwrap();
-    assert_eq!(metallic.method.as_deref(), Some("fit"));
-    assert!(metallic.model.is_none());
+    assert_eq!(metallic.method.as_deref(), Some("hybrid"));
     let share = metallic.constrained.expect("the fit says what it pinned");
     assert!((0.0..=1.0).contains(&share), "{share}");
     for kind in [Param::Basecolor, Param::Roughness] {
@@ -561,7 +560,56 @@ fn fit_metallic_replaces_the_metallic_network_and_feeds_the_others() {
         assert_eq!(entry.method.as_deref(), Some("networks"), "{kind:?}");
         assert!(entry.model.is_some(), "{kind:?}");
     }
-    // The fit decides metallic per pixel as 0 or 1.
-    let map = read_scalar_exr(&dir.path().join("out/p0/metallic.exr")).unwrap();
-    assert!(map.data.iter().all(|&v| v == 0.0 || v == 1.0));
+    assert_eq!(result.fit.as_ref().map(|f| f.method), Some(Method::FitMetallic));
+}
+
+#[test]
+fn fit_metallic_without_light_intensities_keeps_the_metallic_networks_answer() {
+    let dir = tempfile::tempdir().unwrap();
+    let scan = scan_copy(dir.path());
+    // A rig without radiometric calibration: no light intensity anywhere.
+    let path = scan.join("scan.toml");
+    let (mut manifest, _) = Manifest::read(&path).unwrap();
+    for position in &mut manifest.positions {
+        for light in &mut position.lights {
+            light.intensity = None;
+        }
+    }
+    std::fs::write(&path, manifest.to_toml()).unwrap();
+    let networks = run(
+        &scan,
+        &EstimateOptions {
+            out: Some(dir.path().join("networks")),
+            method: Method::Networks,
+            ..EstimateOptions::default()
+        },
+    )
+    .unwrap();
+    let chosen = run(
+        &scan,
+        &EstimateOptions {
+            out: Some(dir.path().join("fit-metallic")),
+            method: Method::FitMetallic,
+            ..EstimateOptions::default()
+        },
+    )
+    .unwrap();
+    let read = |out: &str, p: &str| {
+        read_scalar_exr(&dir.path().join(out).join("p0").join(format!("{p}.exr")))
+            .unwrap()
+            .data
+    };
+    // Nothing is pinned, so every map equals the networks' own chain.
+    assert_eq!(
+        chosen.param(Param::Metallic).unwrap().constrained,
+        Some(0.0)
+    );
+    for p in ["metallic", "roughness", "subsurface"] {
+        assert_eq!(read("networks", p), read("fit-metallic", p), "{p}");
+    }
+    assert!(chosen
+        .fit
+        .as_ref()
+        .is_some_and(|f| f.scale.starts_with("none")));
+    assert_eq!(networks.param(Param::Metallic).unwrap().method.as_deref(), Some("networks"));
 }

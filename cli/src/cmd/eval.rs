@@ -55,10 +55,10 @@ pub struct EvalArgs {
     pub textures: Option<u32>,
     /// Who answers basecolor, roughness and metallic in the chained
     /// estimate: networks, fit, hybrid or fit-metallic (see `matscan
-    /// estimate --help`).
-    /// The truth-fed protocol measures the networks alone.
-    #[arg(long, default_value_t = Method::default())]
-    pub method: Method,
+    /// estimate --help`; default: the estimator's, fit-metallic). The
+    /// truth-fed protocol measures the networks alone.
+    #[arg(long)]
+    pub method: Option<Method>,
 }
 
 /// Runs `matscan eval`: prints the tables, writes the CSV.

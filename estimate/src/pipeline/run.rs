@@ -523,11 +523,12 @@ impl Pass<'_> {
                 (values, runs)
             }
             Method::FitMetallic => {
-                // The fit's metallic, decided per material, replaces the
-                // metallic network's for roughness and basecolor, whose
-                // networks run after the fit fed it. Subsurface keeps the
-                // metallic network's: on `tune` its MAD fed that is 0.154,
-                // fed the fit's 0.179 (docs/results.md).
+                // Metallic as `hybrid` answers it (the fit's decision per
+                // material where the photos pin it, the metallic network's
+                // elsewhere) replaces the network's for roughness and
+                // basecolor, whose networks run after the fit fed it.
+                // Subsurface keeps the metallic network's: on `tune` its MAD
+                // fed that is 0.154, fed the fit's 0.179 (docs/results.md).
                 let mut values = held_values(self.plan, inputs)?;
                 let mut runs = BTreeMap::new();
                 let before = stages_of(
@@ -635,7 +636,7 @@ impl FitTally {
             _ => None,
         });
         match (share, method) {
-            (Some(s), Method::FitMetallic) if kind == Param::Metallic => (Method::Fit, Some(s)),
+            (Some(s), Method::FitMetallic) if kind == Param::Metallic => (Method::Hybrid, Some(s)),
             (Some(_), Method::FitMetallic) => (Method::Networks, None),
             (Some(s), _) => (method, Some(s)),
             (None, _) => (Method::Networks, None),
@@ -672,7 +673,7 @@ fn fit_values(
     };
     let grey = vec![[0.5f32; 3]; n];
     let half = vec![0.5f32; n];
-    let fallback = (method == Method::Hybrid).then(|| Fallback {
+    let fallback = matches!(method, Method::Hybrid | Method::FitMetallic).then(|| Fallback {
         basecolor: values.basecolor.as_deref().unwrap_or(&grey),
         roughness: values
             .scalar

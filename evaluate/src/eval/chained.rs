@@ -145,7 +145,7 @@ pub(super) fn chained_configurations(
                     References::First
                 },
                 calib,
-                method: args.method,
+                method: args.method.unwrap_or_default(),
                 ..EstimateOptions::default()
             };
             let textures = &mut c.textures;

@@ -69,14 +69,13 @@ pub fn run(args: &EvalOptions) -> Result<EvalReport> {
     if args.dependencies == DependencySource::Truth && args.textures.is_some() {
         bail!("--textures bakes the chained estimate; drop --dependencies truth");
     }
-    if args.dependencies == DependencySource::Truth
-        && args.method != matscan_estimate::pipeline::method::Method::Networks
-    {
-        bail!(
-            "--dependencies truth measures each network alone; --method {} applies to the \
-             chained estimate (drop one of them)",
-            args.method
-        );
+    if let (DependencySource::Truth, Some(method)) = (args.dependencies, args.method) {
+        if method != matscan_estimate::pipeline::method::Method::Networks {
+            bail!(
+                "--dependencies truth measures each network alone; --method {method} applies \
+                 to the chained estimate (drop one of them)"
+            );
+        }
     }
     let baseline_scans = match &args.baseline_from {
         Some(dir) => scans_in(dir)?,

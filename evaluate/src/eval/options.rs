@@ -28,8 +28,9 @@ pub struct EvalOptions {
     /// and score them in texture space and re-rendered.
     pub textures: Option<u32>,
     /// Who answers basecolor, roughness and metallic in the chained
-    /// estimate (the truth-fed protocol measures the networks alone).
-    pub method: matscan_estimate::pipeline::method::Method,
+    /// estimate (`None`: the estimator's default). The truth-fed protocol
+    /// measures the networks alone and takes no method.
+    pub method: Option<matscan_estimate::pipeline::method::Method>,
 }
 
 /// The printed tables and the CSV of one evaluation.
