@@ -196,6 +196,10 @@ fn truth_fed_eval_matches_the_chained_one_for_networks_without_dependencies() {
             "0",
             "--dependencies",
             deps,
+            // The networks' own chain (the default method lets the fit
+            // decide metallic); the truth-fed protocol is the networks'.
+            "--method",
+            "networks",
             "--csv",
             csv_path.to_str().unwrap(),
         ]);

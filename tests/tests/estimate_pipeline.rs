@@ -531,7 +531,7 @@ fn the_fit_runs_only_the_networks_it_does_not_replace() {
 }
 
 #[test]
-fn fit_metallic_replaces_the_metallic_network_and_feeds_the_others() {
+fn fit_metallic_answers_metallic_by_the_fit_and_keeps_the_networks_chain_elsewhere() {
     let dir = tempfile::tempdir().unwrap();
     let scan = scan_copy(dir.path());
     let options = EstimateOptions {
@@ -540,7 +540,7 @@ fn fit_metallic_replaces_the_metallic_network_and_feeds_the_others() {
         ..EstimateOptions::default()
     };
     let result = run(&scan, &options).unwrap();
-    // The metallic network still runs: subsurface reads its answer.
+    // The metallic network still runs: roughness and subsurface read it.
     assert_eq!(
         ran(&result),
         vec![
@@ -560,7 +560,30 @@ fn fit_metallic_replaces_the_metallic_network_and_feeds_the_others() {
         assert_eq!(entry.method.as_deref(), Some("networks"), "{kind:?}");
         assert!(entry.model.is_some(), "{kind:?}");
     }
-    assert_eq!(result.fit.as_ref().map(|f| f.method), Some(Method::FitMetallic));
+    assert_eq!(
+        result.fit.as_ref().map(|f| f.method),
+        Some(Method::FitMetallic)
+    );
+
+    // Roughness, subsurface and transmission are the networks' own chain,
+    // map for map; basecolor is fed the fit's metallic.
+    run(
+        &scan,
+        &EstimateOptions {
+            method: Method::Networks,
+            out: Some(dir.path().join("networks")),
+            ..EstimateOptions::default()
+        },
+    )
+    .unwrap();
+    let read = |out: &str, p: &str| {
+        read_scalar_exr(&dir.path().join(out).join("p0").join(format!("{p}.exr")))
+            .unwrap()
+            .data
+    };
+    for p in ["roughness", "subsurface", "transmission"] {
+        assert_eq!(read("out", p), read("networks", p), "{p}");
+    }
 }
 
 #[test]
@@ -611,5 +634,8 @@ fn fit_metallic_without_light_intensities_keeps_the_metallic_networks_answer() {
         .fit
         .as_ref()
         .is_some_and(|f| f.scale.starts_with("none")));
-    assert_eq!(networks.param(Param::Metallic).unwrap().method.as_deref(), Some("networks"));
+    assert_eq!(
+        networks.param(Param::Metallic).unwrap().method.as_deref(),
+        Some("networks")
+    );
 }

@@ -525,17 +525,23 @@ impl Pass<'_> {
             Method::FitMetallic => {
                 // Metallic as `hybrid` answers it (the fit's decision per
                 // material where the photos pin it, the metallic network's
-                // elsewhere) replaces the network's for roughness and
-                // basecolor, whose networks run after the fit fed it.
-                // Subsurface keeps the metallic network's: on `tune` its MAD
-                // fed that is 0.154, fed the fit's 0.179 (docs/results.md).
+                // elsewhere) replaces the network's for basecolor, whose
+                // network runs after the fit fed it. Subsurface and
+                // roughness keep the metallic network's: on `tune` their
+                // MAD fed that is 0.154 and 0.196, fed the fit's 0.179 and
+                // 0.206 (docs/results.md).
                 let mut values = held_values(self.plan, inputs)?;
                 let mut runs = BTreeMap::new();
                 let before = stages_of(
                     self.plan,
-                    &[Param::Metallic, Param::Transmission, Param::Subsurface],
+                    &[
+                        Param::Metallic,
+                        Param::Transmission,
+                        Param::Subsurface,
+                        Param::Roughness,
+                    ],
                 );
-                let after = stages_of(self.plan, &[Param::Roughness, Param::Basecolor]);
+                let after = stages_of(self.plan, &[Param::Basecolor]);
                 let (models, device) = (self.models, self.device);
                 run_stages(
                     self.plan,
@@ -693,10 +699,13 @@ fn fit_values(
         fallback,
         options,
     )?;
-    if estimated(Param::Basecolor) {
+    // Under fit-metallic the fit answers metallic alone: roughness is the
+    // network's, basecolor the network's that runs after.
+    let surface = method != Method::FitMetallic;
+    if surface && estimated(Param::Basecolor) {
         values.basecolor = Some(fitted.basecolor.clone());
     }
-    if estimated(Param::Roughness) {
+    if surface && estimated(Param::Roughness) {
         values
             .scalar
             .insert(Param::Roughness, fitted.roughness.clone());

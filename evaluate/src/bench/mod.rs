@@ -956,7 +956,10 @@ mod tests {
             lines[1]
         );
         assert!(
-            lines[2].contains(",2,cpu flex,0,networks,3,6,untrained,,,,,"),
+            lines[2].contains(&format!(
+                ",2,cpu flex,0,{},3,6,untrained,,,,,",
+                Method::default()
+            )),
             "{}",
             lines[2]
         );
