@@ -66,9 +66,10 @@ pub struct EstimateArgs {
     /// Who answers basecolor, roughness and metallic: networks (the
     /// thesis's), fit (the physical fit to the photos under the calibrated
     /// lights), hybrid (the fit where the photos pin a value, the networks
-    /// elsewhere) or fit-metallic (the fit decides metallic per material,
-    /// the networks answer basecolor and roughness fed it). Transmission
-    /// and subsurface come from their networks under every method.
+    /// elsewhere) or fit-metallic (the default: metallic as hybrid answers
+    /// it, basecolor by its network fed that metallic, roughness by the
+    /// networks' own chain). Transmission and subsurface come from their
+    /// networks under every method.
     #[arg(long, default_value_t = Method::default())]
     pub method: Method,
     /// Where the networks run: cpu (the build's default CPU backend), flex,
