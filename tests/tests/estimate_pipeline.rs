@@ -540,7 +540,7 @@ fn fit_metallic_answers_metallic_by_the_fit_and_keeps_the_networks_chain_elsewhe
         ..EstimateOptions::default()
     };
     let result = run(&scan, &options).unwrap();
-    // The metallic network still runs: roughness and subsurface read it.
+    // The metallic network still runs: subsurface reads its answer.
     assert_eq!(
         ran(&result),
         vec![
@@ -565,8 +565,8 @@ fn fit_metallic_answers_metallic_by_the_fit_and_keeps_the_networks_chain_elsewhe
         Some(Method::FitMetallic)
     );
 
-    // Roughness, subsurface and transmission are the networks' own chain,
-    // map for map; basecolor is fed the fit's metallic.
+    // Subsurface and transmission are the networks' own chain, map for
+    // map; roughness and basecolor are fed the fit's metallic.
     run(
         &scan,
         &EstimateOptions {
@@ -581,7 +581,7 @@ fn fit_metallic_answers_metallic_by_the_fit_and_keeps_the_networks_chain_elsewhe
             .unwrap()
             .data
     };
-    for p in ["roughness", "subsurface", "transmission"] {
+    for p in ["subsurface", "transmission"] {
         assert_eq!(read("out", p), read("networks", p), "{p}");
     }
 }

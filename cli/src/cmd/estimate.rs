@@ -67,9 +67,9 @@ pub struct EstimateArgs {
     /// thesis's), fit (the physical fit to the photos under the calibrated
     /// lights), hybrid (the fit where the photos pin a value, the networks
     /// elsewhere) or fit-metallic (the default: metallic as hybrid answers
-    /// it, basecolor by its network fed that metallic, roughness by the
-    /// networks' own chain). Transmission and subsurface come from their
-    /// networks under every method.
+    /// it, basecolor and roughness by their networks fed that metallic).
+    /// Transmission and subsurface come from their networks under every
+    /// method.
     #[arg(long, default_value_t = Method::default())]
     pub method: Method,
     /// Where the networks run: cpu (the build's default CPU backend), flex,

@@ -21,13 +21,13 @@ pub enum Method {
     Hybrid,
     /// Metallic as [`Method::Hybrid`] answers it (the fit's decision per
     /// material, the metallic network's where the photos pin nothing); the
-    /// basecolor network then runs fed that metallic, as the thesis's chain
-    /// feeds it the metallic network's. Roughness and subsurface stay the
-    /// networks' own chain (fed the metallic network), which measured
-    /// better for them.
+    /// roughness and basecolor networks then run fed that metallic, as the
+    /// thesis's chain feeds them the metallic network's. Subsurface stays
+    /// fed the metallic network's answer, which measured better for it.
     ///
-    /// The default: each parameter comes from the method with the lowest
-    /// MAD on the `tune` set (docs/results.md).
+    /// The default: on the `tune` set it has the lowest MAD of the methods
+    /// for basecolor, metallic and subsurface, and roughness 5 % above the
+    /// networks' (docs/results.md).
     #[default]
     #[serde(rename = "fit-metallic")]
     FitMetallic,

@@ -525,23 +525,20 @@ impl Pass<'_> {
             Method::FitMetallic => {
                 // Metallic as `hybrid` answers it (the fit's decision per
                 // material where the photos pin it, the metallic network's
-                // elsewhere) replaces the network's for basecolor, whose
-                // network runs after the fit fed it. Subsurface and
-                // roughness keep the metallic network's: on `tune` their
-                // MAD fed that is 0.154 and 0.196, fed the fit's 0.179 and
-                // 0.206 (docs/results.md).
+                // elsewhere) replaces the network's for roughness and
+                // basecolor, whose networks run after the fit fed it.
+                // Subsurface keeps the metallic network's: on `tune` its
+                // MAD fed that is 0.154, fed the fit's 0.179. (Roughness
+                // fed the metallic network's scores 0.196 against 0.206,
+                // but basecolor fed that roughness 0.164 against 0.153:
+                // docs/results.md.)
                 let mut values = held_values(self.plan, inputs)?;
                 let mut runs = BTreeMap::new();
                 let before = stages_of(
                     self.plan,
-                    &[
-                        Param::Metallic,
-                        Param::Transmission,
-                        Param::Subsurface,
-                        Param::Roughness,
-                    ],
+                    &[Param::Metallic, Param::Transmission, Param::Subsurface],
                 );
-                let after = stages_of(self.plan, &[Param::Basecolor]);
+                let after = stages_of(self.plan, &[Param::Roughness, Param::Basecolor]);
                 let (models, device) = (self.models, self.device);
                 run_stages(
                     self.plan,
@@ -699,8 +696,8 @@ fn fit_values(
         fallback,
         options,
     )?;
-    // Under fit-metallic the fit answers metallic alone: roughness is the
-    // network's, basecolor the network's that runs after.
+    // Under fit-metallic the fit answers metallic alone: the roughness and
+    // basecolor networks run after it.
     let surface = method != Method::FitMetallic;
     if surface && estimated(Param::Basecolor) {
         values.basecolor = Some(fitted.basecolor.clone());
