@@ -584,12 +584,16 @@ fn choose(
     let m = known_metallic.unwrap_or(usize::from(metal.1 < dielectric.1));
     let (k, best) = if m == 1 { metal } else { dielectric };
     let other = if m == 1 { dielectric.1 } else { metal.1 };
-    let metallic_pinned =
-        known_metallic.is_some() || other > best * (1.0 + options.metallic_contrast) + 1e-9;
+    // The roughest lobe on the grid winning means no surface lobe explains
+    // the photos (light scattered inside or through the material): such a
+    // material pins neither its roughness nor its metallic.
+    let explained = k + 1 < r;
+    let metallic_pinned = known_metallic.is_some()
+        || (explained && other > best * (1.0 + options.metallic_contrast) + 1e-9);
     let row = row_of(m);
     let worst = row.iter().copied().fold(0.0f64, f64::max);
-    let roughness_pinned =
-        known_roughness.is_some() || worst > best * (1.0 + options.roughness_contrast) + 1e-9;
+    let roughness_pinned = known_roughness.is_some()
+        || (explained && worst > best * (1.0 + options.roughness_contrast) + 1e-9);
     let roughness = known_roughness.unwrap_or_else(|| parabola_minimum(row, grid, k));
     let roughness = match (roughness_pinned, fallback) {
         (false, Some(f)) => median(f.roughness).unwrap_or(roughness),

@@ -26,8 +26,8 @@ pub enum Method {
     /// fed the metallic network's answer, which measured better for it.
     ///
     /// The default: on the `tune` set it has the lowest MAD of the methods
-    /// for basecolor, metallic and subsurface, and roughness 5 % above the
-    /// networks' (docs/results.md).
+    /// for roughness and subsurface, and within 0.002 of the lowest for
+    /// basecolor and metallic (docs/results.md).
     #[default]
     #[serde(rename = "fit-metallic")]
     FitMetallic,
