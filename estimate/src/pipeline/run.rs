@@ -529,8 +529,8 @@ impl Pass<'_> {
                 // basecolor, whose networks run after the fit fed it.
                 // Subsurface keeps the metallic network's: on `tune` its
                 // MAD fed that is 0.154, fed the fit's 0.179. (Roughness
-                // fed the metallic network's scores 0.196 against 0.206,
-                // but basecolor fed that roughness 0.164 against 0.153:
+                // fed the metallic network's instead loses more on
+                // basecolor, whose network reads it, than it wins:
                 // docs/results.md.)
                 let mut values = held_values(self.plan, inputs)?;
                 let mut runs = BTreeMap::new();
