@@ -84,6 +84,23 @@ fn ran(result: &ResultFile) -> Vec<String> {
     result.timings.networks.keys().cloned().collect()
 }
 
+/// Estimates `scan` by `method` into `dir/out`.
+fn run_method(scan: &Path, dir: &Path, method: Method, out: &str) -> ResultFile {
+    let options = EstimateOptions {
+        method,
+        out: Some(dir.join(out)),
+        ..EstimateOptions::default()
+    };
+    run(scan, &options).unwrap()
+}
+
+/// The reference position's map of `param` that a run wrote into `dir/out`.
+fn map_in(dir: &Path, out: &str, param: &str) -> Vec<f32> {
+    read_scalar_exr(&dir.join(out).join("p0").join(format!("{param}.exr")))
+        .unwrap()
+        .data
+}
+
 /// Removes every capture of `role` from the manifest.
 fn drop_captures(scan: &Path, unwanted: impl Fn(&CaptureRole) -> bool) {
     let path = scan.join("scan.toml");
@@ -511,12 +528,7 @@ fn the_gpu_backend_writes_the_maps_the_cpu_writes() {
 fn the_fit_runs_only_the_networks_it_does_not_replace() {
     let dir = tempfile::tempdir().unwrap();
     let scan = scan_copy(dir.path());
-    let options = EstimateOptions {
-        method: Method::Fit,
-        out: Some(dir.path().join("out")),
-        ..EstimateOptions::default()
-    };
-    let result = run(&scan, &options).unwrap();
+    let result = run_method(&scan, dir.path(), Method::Fit, "out");
     assert_eq!(ran(&result), vec!["subsurface", "transmission"]);
     assert_eq!(
         result.models.keys().collect::<Vec<_>>(),
@@ -534,12 +546,7 @@ fn the_fit_runs_only_the_networks_it_does_not_replace() {
 fn fit_metallic_answers_metallic_by_the_fit_and_keeps_the_networks_chain_elsewhere() {
     let dir = tempfile::tempdir().unwrap();
     let scan = scan_copy(dir.path());
-    let options = EstimateOptions {
-        method: Method::FitMetallic,
-        out: Some(dir.path().join("out")),
-        ..EstimateOptions::default()
-    };
-    let result = run(&scan, &options).unwrap();
+    let result = run_method(&scan, dir.path(), Method::FitMetallic, "out");
     // The metallic network still runs: subsurface reads its answer.
     assert_eq!(
         ran(&result),
@@ -567,22 +574,13 @@ fn fit_metallic_answers_metallic_by_the_fit_and_keeps_the_networks_chain_elsewhe
 
     // Subsurface and transmission are the networks' own chain, map for
     // map; roughness and basecolor are fed the fit's metallic.
-    run(
-        &scan,
-        &EstimateOptions {
-            method: Method::Networks,
-            out: Some(dir.path().join("networks")),
-            ..EstimateOptions::default()
-        },
-    )
-    .unwrap();
-    let read = |out: &str, p: &str| {
-        read_scalar_exr(&dir.path().join(out).join("p0").join(format!("{p}.exr")))
-            .unwrap()
-            .data
-    };
+    run_method(&scan, dir.path(), Method::Networks, "networks");
     for p in ["subsurface", "transmission"] {
-        assert_eq!(read("out", p), read("networks", p), "{p}");
+        assert_eq!(
+            map_in(dir.path(), "out", p),
+            map_in(dir.path(), "networks", p),
+            "{p}"
+        );
     }
 }
 
@@ -599,36 +597,19 @@ fn fit_metallic_without_light_intensities_keeps_the_metallic_networks_answer() {
         }
     }
     std::fs::write(&path, manifest.to_toml()).unwrap();
-    let networks = run(
-        &scan,
-        &EstimateOptions {
-            out: Some(dir.path().join("networks")),
-            method: Method::Networks,
-            ..EstimateOptions::default()
-        },
-    )
-    .unwrap();
-    let chosen = run(
-        &scan,
-        &EstimateOptions {
-            out: Some(dir.path().join("fit-metallic")),
-            method: Method::FitMetallic,
-            ..EstimateOptions::default()
-        },
-    )
-    .unwrap();
-    let read = |out: &str, p: &str| {
-        read_scalar_exr(&dir.path().join(out).join("p0").join(format!("{p}.exr")))
-            .unwrap()
-            .data
-    };
+    let networks = run_method(&scan, dir.path(), Method::Networks, "networks");
+    let chosen = run_method(&scan, dir.path(), Method::FitMetallic, "fit-metallic");
     // Nothing is pinned, so every map equals the networks' own chain.
     assert_eq!(
         chosen.param(Param::Metallic).unwrap().constrained,
         Some(0.0)
     );
     for p in ["metallic", "roughness", "subsurface"] {
-        assert_eq!(read("networks", p), read("fit-metallic", p), "{p}");
+        assert_eq!(
+            map_in(dir.path(), "networks", p),
+            map_in(dir.path(), "fit-metallic", p),
+            "{p}"
+        );
     }
     assert!(chosen
         .fit

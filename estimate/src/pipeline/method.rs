@@ -3,6 +3,7 @@
 //! Transmission and subsurface come from their networks under every
 //! method: the point-light photos the fit explains say little about them.
 
+use matscan_scan::Param;
 use serde::{Deserialize, Serialize};
 use std::fmt;
 use std::str::FromStr;
@@ -49,6 +50,43 @@ impl Method {
             Method::FitMetallic => "fit-metallic",
         }
     }
+
+    /// Whether the physical fit runs.
+    pub fn fits(self) -> bool {
+        self != Method::Networks
+    }
+
+    /// The networks that run before the fit (it reads their answers) and
+    /// after it (they read the fit's), each in pipeline order; only those
+    /// the plan runs do. Under `fit` only what the fit does not measure
+    /// runs: transmission, which it renders under, before; subsurface,
+    /// which reads metallic, after. Under `fit-metallic` subsurface stays
+    /// fed the metallic network (on `tune` its MAD fed that is 0.154, fed
+    /// the fit's 0.179), and roughness is fed the fit's metallic with
+    /// basecolor (fed the metallic network's instead, it loses more on
+    /// basecolor, whose network reads it, than it wins: docs/results.md).
+    pub fn networks_around_fit(self) -> (&'static [Param], &'static [Param]) {
+        const EVERY: &[Param] = &crate::net::spec::PIPELINE_ORDER;
+        match self {
+            Method::Networks | Method::Hybrid => (EVERY, &[]),
+            Method::Fit => (&[Param::Transmission], &[Param::Subsurface]),
+            Method::FitMetallic => (
+                &[Param::Metallic, Param::Transmission, Param::Subsurface],
+                &[Param::Roughness, Param::Basecolor],
+            ),
+        }
+    }
+
+    /// Who answers `kind` under this method, as `result.toml` names it:
+    /// the method itself where the fit's answer stands, else the networks.
+    pub fn answering(self, kind: Param) -> Method {
+        match (self, kind) {
+            (Method::FitMetallic, Param::Metallic) => Method::Hybrid,
+            (Method::FitMetallic, _) => Method::Networks,
+            (m, Param::Basecolor | Param::Roughness | Param::Metallic) => m,
+            _ => Method::Networks,
+        }
+    }
 }
 
 impl fmt::Display for Method {
@@ -76,6 +114,33 @@ impl FromStr for Method {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn every_network_runs_once_and_only_fit_leaves_metallic_roughness_and_basecolor_out() {
+        for m in Method::ALL {
+            let (before, after) = m.networks_around_fit();
+            let mut ran: Vec<Param> = before.iter().chain(after).copied().collect();
+            let count = ran.len();
+            ran.sort();
+            ran.dedup();
+            assert_eq!(ran.len(), count, "{m}: a network twice");
+            let expected = if m == Method::Fit { 2 } else { 5 };
+            assert_eq!(count, expected, "{m}");
+        }
+        assert_eq!(
+            Method::FitMetallic.answering(Param::Metallic),
+            Method::Hybrid
+        );
+        assert_eq!(
+            Method::FitMetallic.answering(Param::Roughness),
+            Method::Networks
+        );
+        assert_eq!(Method::Fit.answering(Param::Basecolor), Method::Fit);
+        assert_eq!(
+            Method::Hybrid.answering(Param::Subsurface),
+            Method::Networks
+        );
+    }
 
     #[test]
     fn names_round_trip_and_a_wrong_one_says_what_was_expected() {

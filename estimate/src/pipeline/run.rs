@@ -393,29 +393,6 @@ pub fn estimate_prepared(
 /// Per network that ran: the views it fused and its seconds.
 type NetRuns = BTreeMap<Param, (usize, f64)>;
 
-/// Sets the given and skipped parameters and runs the networks stage by
-/// stage in the image of `inputs.reference`; the seconds each network took
-/// and the views it fused, by network.
-fn run_networks(
-    plan: &Plan,
-    models: &Models,
-    inputs: &SceneInputs,
-    device: &Device,
-) -> Result<(Values, NetRuns), EstimateError> {
-    let mut values = held_values(plan, inputs)?;
-    let mut runs = BTreeMap::new();
-    run_stages(
-        plan,
-        plan.stages(),
-        models,
-        inputs,
-        &mut values,
-        device,
-        &mut runs,
-    )?;
-    Ok((values, runs))
-}
-
 /// Values with every given and skipped parameter set, nothing estimated.
 fn held_values(plan: &Plan, inputs: &SceneInputs) -> Result<Values, EstimateError> {
     let t = Instant::now();
@@ -483,87 +460,15 @@ impl Pass<'_> {
         tally: &mut RefineTally,
         fits: &mut FitTally,
     ) -> Result<(PositionMaps, NetRuns, f64), EstimateError> {
-        let (values, runs) = match self.method {
-            Method::Networks => run_networks(self.plan, self.models, inputs, self.device)?,
-            Method::Hybrid => {
-                let (mut values, runs) = run_networks(self.plan, self.models, inputs, self.device)?;
-                let fitted = self.fit_values(&mut values, inputs)?;
-                fits.add(self.method, &fitted, self.bundle, inputs);
-                (values, runs)
-            }
-            Method::Fit => {
-                // Only the networks of what the fit does not measure run:
-                // transmission before the fit (the fit renders under it),
-                // subsurface after (it reads the fitted metallic).
-                let mut values = held_values(self.plan, inputs)?;
-                let mut runs = BTreeMap::new();
-                let before = stages_of(self.plan, &[Param::Transmission]);
-                let after = stages_of(self.plan, &[Param::Subsurface]);
-                let (models, device) = (self.models, self.device);
-                run_stages(
-                    self.plan,
-                    &before,
-                    models,
-                    inputs,
-                    &mut values,
-                    device,
-                    &mut runs,
-                )?;
-                let fitted = self.fit_values(&mut values, inputs)?;
-                fits.add(self.method, &fitted, self.bundle, inputs);
-                run_stages(
-                    self.plan,
-                    &after,
-                    models,
-                    inputs,
-                    &mut values,
-                    device,
-                    &mut runs,
-                )?;
-                (values, runs)
-            }
-            Method::FitMetallic => {
-                // Metallic as `hybrid` answers it (the fit's decision per
-                // material where the photos pin it, the metallic network's
-                // elsewhere) replaces the network's for roughness and
-                // basecolor, whose networks run after the fit fed it.
-                // Subsurface keeps the metallic network's: on `tune` its
-                // MAD fed that is 0.154, fed the fit's 0.179. (Roughness
-                // fed the metallic network's instead loses more on
-                // basecolor, whose network reads it, than it wins:
-                // docs/results.md.)
-                let mut values = held_values(self.plan, inputs)?;
-                let mut runs = BTreeMap::new();
-                let before = stages_of(
-                    self.plan,
-                    &[Param::Metallic, Param::Transmission, Param::Subsurface],
-                );
-                let after = stages_of(self.plan, &[Param::Roughness, Param::Basecolor]);
-                let (models, device) = (self.models, self.device);
-                run_stages(
-                    self.plan,
-                    &before,
-                    models,
-                    inputs,
-                    &mut values,
-                    device,
-                    &mut runs,
-                )?;
-                let fitted = self.fit_values(&mut values, inputs)?;
-                fits.add(self.method, &fitted, self.bundle, inputs);
-                run_stages(
-                    self.plan,
-                    &after,
-                    models,
-                    inputs,
-                    &mut values,
-                    device,
-                    &mut runs,
-                )?;
-                (values, runs)
-            }
-        };
-        let mut values = values;
+        let (before, after) = self.method.networks_around_fit();
+        let mut values = held_values(self.plan, inputs)?;
+        let mut runs = BTreeMap::new();
+        self.run_networks(before, inputs, &mut values, &mut runs)?;
+        if self.method.fits() {
+            let fitted = self.fit_values(&mut values, inputs)?;
+            fits.add(self.method, &fitted, self.bundle, inputs);
+        }
+        self.run_networks(after, inputs, &mut values, &mut runs)?;
         let confidence = refine_values(
             &mut values,
             self.plan,
@@ -582,6 +487,25 @@ impl Pass<'_> {
 }
 
 impl Pass<'_> {
+    /// The plan's networks among `kinds`, stage by stage, into `values`.
+    fn run_networks(
+        &self,
+        kinds: &[Param],
+        inputs: &SceneInputs,
+        values: &mut Values,
+        runs: &mut NetRuns,
+    ) -> Result<(), EstimateError> {
+        run_stages(
+            self.plan,
+            &stages_of(self.plan, kinds),
+            self.models,
+            inputs,
+            values,
+            self.device,
+            runs,
+        )
+    }
+
     fn fit_values(
         &self,
         values: &mut Values,
@@ -638,11 +562,9 @@ impl FitTally {
             Param::Metallic => Some(c.metallic),
             _ => None,
         });
-        match (share, method) {
-            (Some(s), Method::FitMetallic) if kind == Param::Metallic => (Method::Hybrid, Some(s)),
-            (Some(_), Method::FitMetallic) => (Method::Networks, None),
-            (Some(s), _) => (method, Some(s)),
-            (None, _) => (Method::Networks, None),
+        match (share, method.answering(kind)) {
+            (Some(s), answering) if answering != Method::Networks => (answering, Some(s)),
+            _ => (Method::Networks, None),
         }
     }
 }
@@ -696,13 +618,10 @@ fn fit_values(
         fallback,
         options,
     )?;
-    // Under fit-metallic the fit answers metallic alone: the roughness and
-    // basecolor networks run after it.
-    let surface = method != Method::FitMetallic;
-    if surface && estimated(Param::Basecolor) {
+    if estimated(Param::Basecolor) {
         values.basecolor = Some(fitted.basecolor.clone());
     }
-    if surface && estimated(Param::Roughness) {
+    if estimated(Param::Roughness) {
         values
             .scalar
             .insert(Param::Roughness, fitted.roughness.clone());
