@@ -59,6 +59,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if let Some(v) = value("--basecolor-pull") {
         options.basecolor_pull = v;
     }
+    if let Some(v) = value("--saturation") {
+        options.saturation = v as f32;
+    }
     let mut table: Vec<(String, [f64; 3], f64)> = Vec::new();
     for scan in &list {
         let bundle = Bundle::open(scan)?;

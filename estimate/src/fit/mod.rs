@@ -69,7 +69,10 @@ pub const METALLIC_GRID: [f32; 2] = [0.0, 1.0];
 pub struct FitOptions {
     pub noise: Noise,
     pub split: SplitOptions,
-    /// Raw photo value at or above which a channel counts as clipped.
+    /// A channel counts as clipped at or above this fraction of the level
+    /// its photo shows it clipped at (see
+    /// [`matscan_calib::photos::clip_levels`]); a photo that shows no
+    /// pile-up clips nowhere.
     pub saturation: f32,
     /// A material's roughness counts as pinned when the cost at the grid's
     /// worst roughness exceeds the best by at least this fraction.

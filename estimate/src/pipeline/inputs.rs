@@ -29,7 +29,7 @@ use crate::net::spec::InputChannel;
 use crate::net::spec::NetworkSpec;
 use crate::pipeline::views::{View, ViewSet};
 use burn::tensor::{Device, Tensor, TensorData};
-use matscan_calib::photos::luma;
+use matscan_calib::photos::{clip_levels, luma};
 use matscan_calib::white_reference::ycbcr;
 use matscan_calib::{CalibError, ScanCalibration};
 use matscan_scan::capture_list::NeededCapture;
@@ -119,6 +119,10 @@ pub struct ViewPlanes {
     white_lit: [f32; 3],
     ambient_exposure: f64,
     lit_exposure: f64,
+    /// Per channel, the lit photo's clipping level in ambient exposure
+    /// units (infinite where it shows none: see
+    /// [`matscan_calib::photos::clip_levels`]).
+    lit_clip: [f32; 3],
 }
 
 impl ViewPlanes {
@@ -182,6 +186,12 @@ impl ViewPlanes {
     /// Exposure of the view's lit capture, s.
     pub fn lit_exposure(&self) -> f64 {
         self.lit_exposure
+    }
+
+    /// Per channel, the value at which the lit photo clipped, in ambient
+    /// exposure units; infinite where it did not.
+    pub fn lit_clip(&self) -> [f32; 3] {
+        self.lit_clip
     }
 }
 
@@ -541,6 +551,12 @@ fn view_planes(
         .map(|c| rgb(&c.name))
         .transpose()?;
     let geometry = &calib.maps.geometry;
+    // Read in the photo's own image: a warp would blur the pile-up.
+    let lit_clip = clip_levels(
+        photos.get(bundle, &view.position, &view.capture, ambient_exposure)?,
+        Some(&geometry.mask),
+    )
+    .map(|level| level.unwrap_or(f32::INFINITY));
     let cos_nl = scalar(&light.cos_nl, "cos_nl")?;
     let cos_vl = scalar(&light.cos_vl, "cos_vl")?;
     let cos_nv = scalar(&geometry.cos_nv, "cos_nv")?;
@@ -584,6 +600,7 @@ fn view_planes(
         white_lit,
         ambient_exposure,
         lit_exposure,
+        lit_clip,
     })
 }
 

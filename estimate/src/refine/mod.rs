@@ -61,7 +61,10 @@ pub struct RefineOptions {
     /// their own units; roughness: natural log), i.e. how far the data may
     /// pull each parameter from the network's answer at equal cost.
     pub prior_sigma: PriorSigma,
-    /// Raw photo value at or above which a channel counts as clipped.
+    /// A channel counts as clipped at or above this fraction of the level
+    /// its photo shows it clipped at (see
+    /// [`matscan_calib::photos::clip_levels`]); a photo that shows no
+    /// pile-up clips nowhere.
     pub saturation: f32,
     /// Noise model and Huber threshold.
     pub noise_abs: f64,

@@ -19,7 +19,7 @@
 use super::error::RefineError;
 use super::loss::{view_weight, ViewEvidence};
 use super::model::{directions, white_response, Observation};
-use crate::pipeline::inputs::{exposure_scale, SceneInputs, ViewPlanes};
+use crate::pipeline::inputs::{SceneInputs, ViewPlanes};
 use matscan_calib::photos::luma;
 use matscan_calib::ScanCalibration;
 use matscan_scan::{Bundle, Pattern};
@@ -43,9 +43,9 @@ pub struct ViewLighting {
     pub light: Vec<[f32; 3]>,
     /// The light's share of the pixel (1 lit, 0 shadow).
     pub lit: Vec<f32>,
-    /// Photo value at or above which a channel counts as clipped, in the
-    /// view's (ambient exposure) units.
-    pub clip: f32,
+    /// Per channel, the photo value at or above which it counts as
+    /// clipped, in the view's (ambient exposure) units.
+    pub clip: [f32; 3],
 }
 
 /// The lighting of `planes` from calibration; `None` when the manifest
@@ -114,7 +114,11 @@ pub fn calibrated_lighting(
 
 /// The lighting of `planes` from the roughness network's illumination
 /// (values in [0, 1], one per reference pixel).
-pub fn network_lighting(planes: &ViewPlanes, illumination: &[f32], clip: f32) -> ViewLighting {
+pub fn network_lighting(
+    planes: &ViewPlanes,
+    illumination: &[f32],
+    clip: [f32; 3],
+) -> ViewLighting {
     let white = planes.white_light();
     let y = luma(white);
     let tint = if y.is_finite() && y > 1e-6 {
@@ -142,10 +146,11 @@ pub fn network_lighting(planes: &ViewPlanes, illumination: &[f32], clip: f32) ->
     }
 }
 
-/// The clipping level of `planes`' lit photo in ambient exposure units
-/// (the photo scaled as `inputs` scales it).
-pub fn clip_level(planes: &ViewPlanes, saturation: f32) -> f32 {
-    saturation * exposure_scale(planes.ambient_exposure(), planes.lit_exposure())
+/// The level at or above which a channel of `planes`' lit photo counts as
+/// clipped, in ambient exposure units: `saturation` times the level the
+/// photo shows it clipped at, infinite where it shows none.
+pub fn clip_level(planes: &ViewPlanes, saturation: f32) -> [f32; 3] {
+    planes.lit_clip().map(|level| saturation * level)
 }
 
 /// One view of one pixel as the photos show it, before deciding what a
@@ -182,8 +187,8 @@ pub fn seen(planes: &ViewPlanes, lighting: &ViewLighting, i: usize) -> Seen {
             observed: [0, 1, 2].map(|c| finite(lit[c] - ambient[c])),
             weight,
         },
-        clipped: lit.map(|v| v.is_nan() || v >= lighting.clip),
-        floor: ambient.map(|a| finite(lighting.clip - a)),
+        clipped: [0, 1, 2].map(|c| lit[c].is_nan() || lit[c] >= lighting.clip[c]),
+        floor: [0, 1, 2].map(|c| finite(lighting.clip[c] - ambient[c])),
     }
 }
 
