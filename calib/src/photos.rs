@@ -137,7 +137,8 @@ pub fn clip_levels(photo: &RgbRaster, mask: Option<&MaskRaster>) -> [Option<f32>
                 .filter(|v| v.is_finite())
         };
         let top = values().fold(f32::NEG_INFINITY, f32::max);
-        if !(top > 0.0) {
+        // `top` is finite or -inf (only finite values fold in).
+        if top <= 0.0 {
             return None;
         }
         // Half floats step by 2^-10 relative: a tie within a tenth of
@@ -189,7 +190,9 @@ mod tests {
         RgbRaster {
             width: n,
             height: 1,
-            data: (0..n).map(|i| [top * (i + 1) as f32 / n as f32; 3]).collect(),
+            data: (0..n)
+                .map(|i| [top * (i + 1) as f32 / n as f32; 3])
+                .collect(),
         }
     }
 

@@ -6,7 +6,7 @@
 //! not part of the product (`matscan eval --method fit` is the measure).
 //!
 //!   cargo run --release -p matscan-estimate --example fit_tune -- DIR [--quiet]
-//!       [--basecolor-pull P]
+//!       [--basecolor-pull P] [--saturation S] [--no-global]
 
 use matscan_calib::{calibrate_bundle, CalibOptions};
 use matscan_estimate::fit::{fit_scene, FitOptions, Known};
@@ -44,10 +44,9 @@ fn median(mut v: Vec<f32>) -> f32 {
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
-    let root = Path::new(
-        args.get(1)
-            .ok_or("usage: fit_tune DIR [--quiet] [--basecolor-pull P]")?,
-    );
+    let root = Path::new(args.get(1).ok_or(
+        "usage: fit_tune DIR [--quiet] [--basecolor-pull P] [--saturation S] [--no-global]",
+    )?);
     let quiet = args.iter().any(|a| a == "--quiet");
     let mut list = Vec::new();
     scans(root, &mut list);
@@ -58,6 +57,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     if let Some(v) = value("--basecolor-pull") {
         options.basecolor_pull = v;
+    }
+    if args.iter().any(|a| a == "--no-global") {
+        options.separate_global = false;
     }
     if let Some(v) = value("--saturation") {
         options.saturation = v as f32;
@@ -124,8 +126,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     median(members.iter().map(|&i| bc[3 * i + c]).collect())
                 });
                 println!(
-                    "    material {j}: {:5} px  roughness {:.3} (truth {:.3}{})  metallic {} (truth {})  basecolor {:.2?} (truth {:.2?})",
+                    "    material {j}: {:5} px{}  roughness {:.3} (truth {:.3}{})  metallic {} (truth {})  basecolor {:.2?} (truth {:.2?})",
                     mat.pixels,
+                    if mat.scattering { " scattering" } else { "" },
                     mat.roughness,
                     tr,
                     if mat.roughness_pinned { "" } else { ", unpinned" },

@@ -54,16 +54,32 @@ pub struct Sample {
     /// [`footprint_alpha2`]). A photo pixel averages a glossy lobe over
     /// its footprint; a point-sampled model would predict a needle there.
     pub footprint: f32,
+    /// Per channel, the part of `observed` that is global light (light
+    /// that reached the point by another surface or from inside the
+    /// object; see `fit::separation`), 0 where unmeasured.
+    pub global: [f32; 3],
 }
 
 impl Sample {
-    /// An unclipped observation of a point (no footprint).
+    /// An unclipped observation of a point (no footprint, no global light).
     pub fn exact(observation: Observation) -> Sample {
         Sample {
             observation,
             clipped: [false; 3],
             footprint: 0.0,
+            global: [0.0; 3],
         }
+    }
+
+    /// The same view with its global light taken out: what the surface
+    /// reflected of the light directly.
+    pub fn direct(&self) -> Sample {
+        let mut s = *self;
+        for c in 0..3 {
+            s.observation.observed[c] = (s.observation.observed[c] - s.global[c]).max(0.0);
+        }
+        s.global = [0.0; 3];
+        s
     }
 }
 

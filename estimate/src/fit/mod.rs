@@ -35,6 +35,7 @@
 
 pub mod linear;
 pub mod materials;
+pub mod separation;
 
 use crate::pipeline::inputs::{SceneInputs, ViewPlanes};
 use crate::refine::model::{directions, Fixed};
@@ -48,6 +49,7 @@ use matscan_calib::ScanCalibration;
 use matscan_scan::Bundle;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
+use std::collections::HashMap;
 use std::time::Instant;
 
 /// The roughness grid: log-spaced from 0.02 (just above the delta
@@ -86,6 +88,10 @@ pub struct FitOptions {
     /// Strength of the pull of a pixel's basecolor toward its material's
     /// (see [`linear::Pull`]).
     pub basecolor_pull: f64,
+    /// Subtract the global light measured with the projector's checker
+    /// ([`separation`]) from every view, fitting the surface to the direct
+    /// light.
+    pub separate_global: bool,
 }
 
 impl Default for FitOptions {
@@ -98,6 +104,7 @@ impl Default for FitOptions {
             metallic_contrast: 0.05,
             island_radius: 2,
             basecolor_pull: 2.0,
+            separate_global: true,
         }
     }
 }
@@ -133,6 +140,11 @@ pub struct MaterialFit {
     /// median, or the fit's flat best guess without a fallback).
     pub roughness_pinned: bool,
     pub metallic_pinned: bool,
+    /// Fitted to its total light, not its direct light: the direct light
+    /// called it metal, the total light dielectric, the signature of a
+    /// material that scatters light inside.
+    #[serde(default)]
+    pub scattering: bool,
 }
 
 /// Per parameter, the share of the object's pixels whose value the photos
@@ -197,6 +209,9 @@ pub fn fit_scene(
         }
         lighting.push(l);
     }
+    if options.separate_global {
+        subtract_global(bundle, calibration, inputs, &mut lighting, &mut notes)?;
+    }
     let mask = &inputs.mask.data;
     let mut fitted = fit_pixels(
         mask,
@@ -211,6 +226,126 @@ pub fn fit_scene(
     fitted.notes = notes;
     fitted.seconds = t.elapsed().as_secs_f64();
     Ok(fitted)
+}
+
+/// Gives every calibrated view the global light its light puts on each
+/// reference pixel: the position's global light at full projector white
+/// ([`separation::global_light`]) scaled by the ratio of the view's
+/// calibrated light to the projector's, then warped into the reference.
+fn subtract_global(
+    bundle: &Bundle,
+    calibration: &ScanCalibration,
+    inputs: &SceneInputs,
+    lighting: &mut [Option<ViewLighting>],
+    notes: &mut Vec<String>,
+) -> Result<(), RefineError> {
+    let mut measured: HashMap<String, Option<separation::GlobalLight>> = HashMap::new();
+    for (planes, lighting) in inputs.views.iter().zip(lighting.iter_mut()) {
+        let Some(lighting) = lighting.as_mut() else {
+            continue;
+        };
+        let view = &planes.view;
+        if !measured.contains_key(&view.position) {
+            let global = match separation::global_light(bundle, calibration, &view.position)? {
+                Ok(g) => {
+                    notes.push(format!(
+                        "position {}: global light separated with the checker of `{}`, \
+                         measured on {:.0} % of the object",
+                        view.position,
+                        g.projector,
+                        100.0 * g.measured
+                    ));
+                    Some(g)
+                }
+                Err(why) => {
+                    notes.push(format!("{why}: the fit takes the photos' light as direct"));
+                    None
+                }
+            };
+            measured.insert(view.position.clone(), global);
+        }
+        let Some(global) = measured.get(&view.position).and_then(Option::as_ref) else {
+            continue;
+        };
+        let Some(rgb) = view_global(bundle, calibration, planes, global)? else {
+            continue;
+        };
+        lighting.global = Some(if view.position == inputs.reference {
+            rgb.data
+        } else {
+            calibration
+                .correspondence(&inputs.reference, &view.position)
+                .ok_or_else(|| RefineError::MissingMaps(view.to_string()))?
+                .warp_rgb(&rgb, "global light")?
+                .data
+        });
+    }
+    Ok(())
+}
+
+/// The global light of `planes`' view in its position's own image (NaN
+/// where unmeasured), or `None` where the manifest lacks an intensity.
+fn view_global(
+    bundle: &Bundle,
+    calibration: &ScanCalibration,
+    planes: &ViewPlanes,
+    global: &separation::GlobalLight,
+) -> Result<Option<matscan_scan::raster::RgbRaster>, RefineError> {
+    let view = &planes.view;
+    let position = bundle.position(&view.position)?;
+    let capture = bundle.capture(&view.position, &view.capture)?;
+    let light_of = |name: &str| position.lights.iter().find(|l| l.name == name);
+    let (Some(light), Some(projector)) = (light_of(&view.light), light_of(&global.projector))
+    else {
+        return Ok(None);
+    };
+    let usable = |i: Option<f64>| i.filter(|i| i.is_finite() && *i > 0.0);
+    let (Some(intensity), Some(projector_intensity)) =
+        (usable(light.intensity), usable(projector.intensity))
+    else {
+        return Ok(None);
+    };
+    let level = match &capture.pattern {
+        None => 1.0,
+        Some(matscan_scan::Pattern::Uniform { level }) if level.is_finite() => {
+            level.clamp(0.0, 1.0)
+        }
+        Some(_) => return Ok(None),
+    };
+    let maps = calibration
+        .position(&view.position)
+        .ok_or_else(|| RefineError::MissingMaps(view.to_string()))?;
+    let distance = |name: &str| {
+        maps.maps
+            .light(name)
+            .map(|l| &l.distance)
+            .ok_or_else(|| RefineError::MissingMaps(format!("{view}: {name}")))
+    };
+    let (d_view, d_projector) = (distance(&view.light)?, distance(&global.projector)?);
+    let mask = &maps.maps.geometry.mask;
+    let data = (0..global.rgb.len())
+        .map(|i| {
+            let (Some(g), Some(&dv), Some(&dp)) =
+                (global.rgb[i], d_view.data.get(i), d_projector.data.get(i))
+            else {
+                return [f32::NAN; 3];
+            };
+            let (dv, dp) = (f64::from(dv), f64::from(dp));
+            if !(dv > 1e-6 && dp > 1e-6 && dv.is_finite() && dp.is_finite()) {
+                return [f32::NAN; 3];
+            }
+            std::array::from_fn(|c| {
+                let ratio = (intensity * level * light.color[c] / (dv * dv))
+                    / (projector_intensity * projector.color[c].max(1e-6) / (dp * dp));
+                (f64::from(g[c]) * ratio) as f32
+            })
+        })
+        .collect();
+    Ok(Some(matscan_scan::raster::RgbRaster {
+        width: mask.width,
+        height: mask.height,
+        data,
+    }))
 }
 
 /// [`fit_scene`] for any source of observations: `observe(pixel)` returns
@@ -233,17 +368,30 @@ where
     let fixed_at = |i: usize| Fixed {
         transmission: transmission.get(i).copied().unwrap_or(0.0),
     };
-    let observed: Vec<Vec<Sample>> = (0..n)
+    let total_light: Vec<Vec<Sample>> = (0..n)
         .into_par_iter()
         .map(|i| if mask[i] { observe(i) } else { Vec::new() })
         .collect();
-    let volumes: Vec<Option<Volume>> = observed
-        .par_iter()
-        .enumerate()
-        .map(|(i, obs)| {
-            if !mask[i] || obs.is_empty() {
-                return None;
-            }
+    // The surface is fitted to the direct light; where global light was
+    // measured, the total light is fitted too, for materials that scatter
+    // light inside (see `scattering`).
+    let separated = total_light
+        .iter()
+        .flatten()
+        .any(|s| s.global.iter().any(|&g| g > 0.0));
+    let direct: Vec<Vec<Sample>> = if separated {
+        total_light
+            .par_iter()
+            .map(|obs| obs.iter().map(Sample::direct).collect())
+            .collect()
+    } else {
+        total_light.clone()
+    };
+    let volume_of = |i: usize, obs: &[Sample]| -> Option<Volume> {
+        if !mask[i] || obs.is_empty() {
+            return None;
+        }
+        {
             let fixed = fixed_at(i);
             let points = grid.len() * METALLIC_GRID.len();
             let mut cost = Vec::with_capacity(points);
@@ -258,7 +406,12 @@ where
                 }
             }
             (weight > 0.0).then_some(Volume { cost, basecolor })
-        })
+        }
+    };
+    let volumes: Vec<Option<Volume>> = direct
+        .par_iter()
+        .enumerate()
+        .map(|(i, obs)| volume_of(i, obs))
         .collect();
 
     // Each pixel's apparent albedo (as a rough dielectric) places it among
@@ -299,14 +452,41 @@ where
     let mut materials = Vec::with_capacity(parts.count);
     for j in 0..parts.count {
         let list: Vec<usize> = (0..n).filter(|&i| parts.labels[i] == Some(j)).collect();
-        let mut total = vec![0.0f64; points];
+        let mut by_direct = vec![0.0f64; points];
         for &i in &list {
             if let Some(v) = &volumes[i] {
-                total.iter_mut().zip(&v.cost).for_each(|(t, c)| *t += c);
+                by_direct.iter_mut().zip(&v.cost).for_each(|(t, c)| *t += c);
             }
         }
-        materials.push(choose(&total, &grid, &list, known, fallback, options));
+        let mut material = choose(&by_direct, &grid, &list, known, fallback, options);
+        // A material whose direct light calls it metal but whose total
+        // light calls it dielectric scatters light inside: its direct
+        // light is its specular lobe alone (a metal's signature), its
+        // total light the diffuse light it scatters back. Metals scatter
+        // nothing inside, so such a material is fitted to its total light.
+        if separated && known.metallic.is_none() && calls_metal(&by_direct, grid.len()) {
+            let by_total = list
+                .par_iter()
+                .filter_map(|&i| volume_of(i, &total_light[i]))
+                .map(|v| v.cost)
+                .reduce(
+                    || vec![0.0f64; points],
+                    |a, b| a.iter().zip(&b).map(|(x, y)| x + y).collect(),
+                );
+            if !calls_metal(&by_total, grid.len()) {
+                material = choose(&by_total, &grid, &list, known, fallback, options);
+                material.scattering = true;
+            }
+        }
+        materials.push(material);
     }
+    let observed = |i: usize, j: usize| -> &[Sample] {
+        if materials[j].scattering {
+            &total_light[i]
+        } else {
+            &direct[i]
+        }
+    };
 
     // Basecolor per pixel at its material's roughness and metallic, first
     // from its own photos alone; then pulled toward its material's
@@ -315,8 +495,9 @@ where
     let own: Vec<Option<(Vec<Response>, LinearFit)>> = (0..n)
         .into_par_iter()
         .map(|i| {
-            let m = &materials[parts.labels[i]?];
-            let obs = &observed[i];
+            let j = parts.labels[i]?;
+            let m = &materials[j];
+            let obs = observed(i, j);
             let r = responses(obs, m.roughness, m.metallic, &fixed_at(i));
             let fit = solve(obs, &r, &options.noise);
             Some((r, fit))
@@ -351,7 +532,7 @@ where
             let j = parts.labels[i]?;
             let m = &materials[j];
             let fit: LinearFit = solve_pulled(
-                &observed[i],
+                observed(i, j),
                 r,
                 &options.noise,
                 Some(Pull {
@@ -460,6 +641,7 @@ pub fn samples(inputs: &SceneInputs, lighting: &[Option<ViewLighting>], i: usize
                 observation,
                 clipped: s.clipped,
                 footprint: footprint_alpha2(half_angle_step(planes, inputs.width, i)),
+                global: s.global.map(|g| g.max(0.0)),
             })
         })
         .collect()
@@ -550,6 +732,13 @@ fn argmin(v: &[f64]) -> Option<usize> {
         .map(|(i, _)| i)
 }
 
+/// Whether the summed cost volume `total` (dielectric row, then metal
+/// row, `r` roughnesses each) is least in the metal row.
+fn calls_metal(total: &[f64], r: usize) -> bool {
+    let least = |row: &[f64]| row.iter().copied().fold(f64::INFINITY, f64::min);
+    total.len() >= 2 * r && least(&total[r..2 * r]) < least(&total[..r])
+}
+
 /// A material's roughness and metallic from its summed cost volume.
 fn choose(
     total: &[f64],
@@ -588,11 +777,13 @@ fn choose(
     let (k, best) = if m == 1 { metal } else { dielectric };
     let other = if m == 1 { dielectric.1 } else { metal.1 };
     // The roughest lobe on the grid winning means no surface lobe explains
-    // the photos (light scattered inside or through the material): such a
-    // material pins neither its roughness nor its metallic.
+    // the photos (light scattered inside or through the material, or a
+    // truly rough surface): such a material does not pin its roughness,
+    // and a metal call there is the degenerate one (a broad metal lobe
+    // imitating diffuse light), so only a dielectric call is kept.
     let explained = k + 1 < r;
     let metallic_pinned = known_metallic.is_some()
-        || (explained && other > best * (1.0 + options.metallic_contrast) + 1e-9);
+        || ((explained || m == 0) && other > best * (1.0 + options.metallic_contrast) + 1e-9);
     let row = row_of(m);
     let worst = row.iter().copied().fold(0.0f64, f64::max);
     let roughness_pinned = known_roughness.is_some()
@@ -619,6 +810,7 @@ fn choose(
         metallic,
         roughness_pinned,
         metallic_pinned,
+        scattering: false,
     }
 }
 

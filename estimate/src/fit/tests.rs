@@ -221,3 +221,71 @@ fn the_parabola_finds_a_minimum_between_grid_points() {
     assert_eq!(grid.first().copied(), Some(0.02));
     assert!((grid.last().copied().unwrap_or(0.0) - 1.0).abs() < 1e-6);
 }
+
+/// A summed cost volume (dielectric row, then metal row) whose rows fall
+/// toward the grid's roughest lobe, the winning row by `margin`.
+fn falling_rows(metal_wins: bool, margin: f64) -> Vec<f64> {
+    let grid = roughness_grid();
+    let row = |offset: f64| -> Vec<f64> {
+        (0..grid.len())
+            .map(|k| offset + 10.0 * (grid.len() - k) as f64)
+            .collect()
+    };
+    let (dielectric, metal) = if metal_wins {
+        (row(100.0 * margin), row(0.0))
+    } else {
+        (row(0.0), row(100.0 * margin))
+    };
+    [dielectric, metal].concat()
+}
+
+#[test]
+fn at_the_roughest_lobe_a_dielectric_call_is_kept_and_a_metal_call_is_left_to_the_fallback() {
+    let grid = roughness_grid();
+    let members: Vec<usize> = (0..4).collect();
+    let network_metal = [1.0f32; 4];
+    let network_rough = [0.4f32; 4];
+    let network_colour = [[0.5f32; 3]; 4];
+    let fallback = Fallback {
+        basecolor: &network_colour,
+        roughness: &network_rough,
+        metallic: &network_metal,
+    };
+    let options = FitOptions::default();
+    let dielectric = choose(
+        &falling_rows(false, 1.0),
+        &grid,
+        &members,
+        Known::default(),
+        Some(fallback),
+        &options,
+    );
+    assert!(dielectric.metallic_pinned);
+    assert_eq!(dielectric.metallic, 0.0);
+    assert!(!dielectric.roughness_pinned);
+    assert_eq!(dielectric.roughness, 0.4);
+    let metal = choose(
+        &falling_rows(true, 1.0),
+        &grid,
+        &members,
+        Known::default(),
+        Some(fallback),
+        &options,
+    );
+    assert!(!metal.metallic_pinned);
+    assert!(!metal.roughness_pinned);
+    assert_eq!(metal.metallic, 1.0);
+    let network_dielectric = [0.0f32; 4];
+    let metal_against_a_dielectric_network = choose(
+        &falling_rows(true, 1.0),
+        &grid,
+        &members,
+        Known::default(),
+        Some(Fallback {
+            metallic: &network_dielectric,
+            ..fallback
+        }),
+        &options,
+    );
+    assert_eq!(metal_against_a_dielectric_network.metallic, 0.0);
+}

@@ -462,6 +462,17 @@ fn photo(
     capture: &str,
     ambient_exposure: f64,
 ) -> Result<RgbRaster, InputsError> {
+    Ok(scaled_photo(bundle, position, capture, ambient_exposure)?)
+}
+
+/// The photo of `capture` at `position` read and scaled to
+/// `ambient_exposure`, in its own camera image.
+pub(crate) fn scaled_photo(
+    bundle: &Bundle,
+    position: &str,
+    capture: &str,
+    ambient_exposure: f64,
+) -> Result<RgbRaster, ScanError> {
     let exposure = bundle.capture(position, capture)?.exposure_s;
     let k = exposure_scale(ambient_exposure, exposure);
     let mut image = bundle.read_photo(position, capture)?;

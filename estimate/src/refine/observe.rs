@@ -46,6 +46,9 @@ pub struct ViewLighting {
     /// Per channel, the photo value at or above which it counts as
     /// clipped, in the view's (ambient exposure) units.
     pub clip: [f32; 3],
+    /// The global light this view's light puts on each pixel (see
+    /// `fit::separation`); `None` where it was not measured.
+    pub global: Option<Vec<[f32; 3]>>,
 }
 
 /// The lighting of `planes` from calibration; `None` when the manifest
@@ -109,16 +112,13 @@ pub fn calibrated_lighting(
         light,
         lit,
         clip: clip_level(planes, saturation),
+        global: None,
     }))
 }
 
 /// The lighting of `planes` from the roughness network's illumination
 /// (values in [0, 1], one per reference pixel).
-pub fn network_lighting(
-    planes: &ViewPlanes,
-    illumination: &[f32],
-    clip: [f32; 3],
-) -> ViewLighting {
+pub fn network_lighting(planes: &ViewPlanes, illumination: &[f32], clip: [f32; 3]) -> ViewLighting {
     let white = planes.white_light();
     let y = luma(white);
     let tint = if y.is_finite() && y > 1e-6 {
@@ -143,6 +143,7 @@ pub fn network_lighting(
         light,
         lit: vec![1.0; n],
         clip,
+        global: None,
     }
 }
 
@@ -164,6 +165,9 @@ pub struct Seen {
     /// Per channel: the clipping level minus ambient, the least that a
     /// clipped channel's lit minus ambient would have been.
     pub floor: [f32; 3],
+    /// Per channel, the part of lit minus ambient that is global light
+    /// (0 where unmeasured).
+    pub global: [f32; 3],
 }
 
 /// View `planes` of reference pixel `i` under `lighting`.
@@ -178,6 +182,11 @@ pub fn seen(planes: &ViewPlanes, lighting: &ViewLighting, i: usize) -> Seen {
         saturated: false,
     });
     let finite = |d: f32| if d.is_finite() { d } else { 0.0 };
+    let global = lighting
+        .global
+        .as_ref()
+        .and_then(|g| g.get(i).copied())
+        .map_or([0.0; 3], |g| g.map(finite));
     let (wo, wi) = directions(planes.cos_nv()[i], planes.cos_nl()[i], planes.cos_vl()[i]);
     Seen {
         observation: Observation {
@@ -189,6 +198,7 @@ pub fn seen(planes: &ViewPlanes, lighting: &ViewLighting, i: usize) -> Seen {
         },
         clipped: [0, 1, 2].map(|c| lit[c].is_nan() || lit[c] >= lighting.clip[c]),
         floor: [0, 1, 2].map(|c| finite(lighting.clip[c] - ambient[c])),
+        global,
     }
 }
 
