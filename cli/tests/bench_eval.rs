@@ -65,6 +65,7 @@ fn bench_quick_writes_a_row_per_setting_with_finite_figures_and_a_png() {
             ("method", "fit"),
             ("method", "hybrid"),
             ("method", "fit-metallic"),
+            ("method", "fit-specular"),
             ("views", "1 view"),
             ("views", "all views"),
             ("resolution", "32 px"),

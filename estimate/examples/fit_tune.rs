@@ -6,10 +6,10 @@
 //! not part of the product (`matscan eval --method fit` is the measure).
 //!
 //!   cargo run --release -p matscan-estimate --example fit_tune -- DIR [--quiet]
-//!       [--basecolor-pull P] [--saturation S] [--no-global]
+//!       [--basecolor-pull P] [--saturation S] [--direct]
 
 use matscan_calib::{calibrate_bundle, CalibOptions};
-use matscan_estimate::fit::{fit_scene, FitOptions, Known};
+use matscan_estimate::fit::{fit_scene, FitLight, FitOptions, Known};
 use matscan_estimate::pipeline::inputs::SceneInputs;
 use matscan_estimate::pipeline::views::{select_views, ViewFilter};
 use matscan_scan::{Bundle, Param};
@@ -44,9 +44,10 @@ fn median(mut v: Vec<f32>) -> f32 {
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
-    let root = Path::new(args.get(1).ok_or(
-        "usage: fit_tune DIR [--quiet] [--basecolor-pull P] [--saturation S] [--no-global]",
-    )?);
+    let root =
+        Path::new(args.get(1).ok_or(
+            "usage: fit_tune DIR [--quiet] [--basecolor-pull P] [--saturation S] [--direct]",
+        )?);
     let quiet = args.iter().any(|a| a == "--quiet");
     let mut list = Vec::new();
     scans(root, &mut list);
@@ -58,8 +59,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if let Some(v) = value("--basecolor-pull") {
         options.basecolor_pull = v;
     }
-    if args.iter().any(|a| a == "--no-global") {
-        options.separate_global = false;
+    if args.iter().any(|a| a == "--direct") {
+        options.light = FitLight::Direct;
     }
     if let Some(v) = value("--saturation") {
         options.saturation = v as f32;

@@ -1,6 +1,7 @@
 //! The estimation pipeline end to end on small simulated scans with tiny
 //! random networks: what it writes, what it runs, what it skips and why.
 
+use matscan_estimate::fit::{FitLight, FitOptions};
 use matscan_estimate::net::models::weights_file_name;
 use matscan_estimate::pipeline::method::Method;
 use matscan_estimate::pipeline::metrics::PSNR_CAP;
@@ -618,5 +619,40 @@ fn fit_metallic_without_light_intensities_keeps_the_metallic_networks_answer() {
     assert_eq!(
         networks.param(Param::Metallic).unwrap().method.as_deref(),
         Some("networks")
+    );
+}
+
+#[test]
+fn the_fit_to_direct_light_separates_the_global_light_with_the_checker_and_says_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let scan = scan_copy(dir.path());
+    let fit_to = |light: FitLight, out: &str| {
+        let options = EstimateOptions {
+            method: Method::Fit,
+            out: Some(dir.path().join(out)),
+            fit: FitOptions {
+                light,
+                ..FitOptions::default()
+            },
+            ..EstimateOptions::default()
+        };
+        let result = run(&scan, &options).unwrap();
+        result.fit.map(|f| f.notes).unwrap_or_default()
+    };
+    let separated = |notes: &[String]| notes.iter().any(|n| n.contains("global light separated"));
+    let direct = fit_to(FitLight::Direct, "direct");
+    assert!(separated(&direct), "{direct:?}");
+    let total = fit_to(FitLight::Total, "total");
+    assert!(!separated(&total), "{total:?}");
+
+    // Without a checker the fit says it takes the photos' light as direct.
+    drop_captures(&scan, |r| matches!(r, CaptureRole::Pattern { .. }));
+    let without = fit_to(FitLight::Direct, "without");
+    assert!(!separated(&without), "{without:?}");
+    assert!(
+        without
+            .iter()
+            .any(|n| n.contains("no checker capture") && n.contains("as direct")),
+        "{without:?}"
     );
 }

@@ -16,6 +16,7 @@
 
 use anyhow::{bail, Context, Result};
 use clap::Args;
+use matscan_estimate::fit::{FitLight, FitOptions};
 use matscan_estimate::net::models::weights_file_name;
 use matscan_estimate::net::weights::EMBEDDED;
 use matscan_estimate::pipeline::method::Method;
@@ -66,12 +67,21 @@ pub struct EstimateArgs {
     /// Who answers basecolor, roughness and metallic: networks (the
     /// thesis's), fit (the physical fit to the photos under the calibrated
     /// lights), hybrid (the fit where the photos pin a value, the networks
-    /// elsewhere) or fit-metallic (the default: metallic as hybrid answers
-    /// it, basecolor and roughness by their networks fed that metallic).
+    /// elsewhere), fit-metallic (the default: metallic as hybrid answers
+    /// it, basecolor and roughness by their networks fed that metallic) or
+    /// fit-specular (metallic and roughness as hybrid answers them,
+    /// basecolor by its network fed them).
     /// Transmission and subsurface come from their networks under every
     /// method.
     #[arg(long, default_value_t = Method::default())]
     pub method: Method,
+    /// Which light the physical fit explains: total (lit minus ambient as
+    /// photographed) or direct (the global light, interreflections and
+    /// light scattered inside, measured with the projector's checker
+    /// against its uniform field and subtracted; a scan without them is
+    /// fitted to its total light).
+    #[arg(long, value_name = "LIGHT", default_value_t = FitLight::default())]
+    pub fit_light: FitLight,
     /// Where the networks run: cpu (the build's default CPU backend), flex,
     /// ndarray or gpu (Vulkan; needs a build with `--features vulkan`).
     #[arg(long, default_value = "cpu")]
@@ -131,6 +141,10 @@ pub fn run(args: &EstimateArgs) -> Result<()> {
             ..RefineOptions::default()
         },
         method: args.method,
+        fit: FitOptions {
+            light: args.fit_light,
+            ..FitOptions::default()
+        },
         ..EstimateOptions::default()
     };
     let (device, adapter) = args

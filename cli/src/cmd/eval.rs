@@ -3,6 +3,7 @@
 
 use anyhow::{Context, Result};
 use clap::Args;
+use matscan_estimate::fit::FitLight;
 use matscan_estimate::pipeline::method::Method;
 use matscan_evaluate::eval::tables::GroupBy;
 use matscan_evaluate::eval::{run as evaluate, DependencySource, EvalOptions};
@@ -54,11 +55,16 @@ pub struct EvalArgs {
     #[arg(long, value_name = "SIZE", num_args = 0..=1, default_missing_value = "256")]
     pub textures: Option<u32>,
     /// Who answers basecolor, roughness and metallic in the chained
-    /// estimate: networks, fit, hybrid or fit-metallic (see `matscan
+    /// estimate: networks, fit, hybrid, fit-metallic or fit-specular (see `matscan
     /// estimate --help`; default: the estimator's, fit-metallic). The
     /// truth-fed protocol measures the networks alone.
     #[arg(long)]
     pub method: Option<Method>,
+    /// Which light the physical fit explains: total (lit minus ambient, the
+    /// default) or direct (the global light measured with the projector's
+    /// checker subtracted; see `matscan estimate --help`).
+    #[arg(long, value_name = "LIGHT")]
+    pub fit_light: Option<FitLight>,
 }
 
 /// Runs `matscan eval`: prints the tables, writes the CSV.
@@ -74,6 +80,7 @@ pub fn run(a: &EvalArgs) -> Result<()> {
         dependencies: a.dependencies,
         textures: a.textures,
         method: a.method,
+        fit_light: a.fit_light,
     })?;
     print!("{}", report.table);
     if let Some(path) = &a.csv {

@@ -88,10 +88,55 @@ pub struct FitOptions {
     /// Strength of the pull of a pixel's basecolor toward its material's
     /// (see [`linear::Pull`]).
     pub basecolor_pull: f64,
-    /// Subtract the global light measured with the projector's checker
-    /// ([`separation`]) from every view, fitting the surface to the direct
-    /// light.
-    pub separate_global: bool,
+    /// Which light the surface is fitted to.
+    pub light: FitLight,
+}
+
+/// Which part of the photos' light the surface BSDF is fitted to.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum FitLight {
+    /// Lit minus ambient as it is: direct light and global light
+    /// (interreflections, light scattered inside) together.
+    #[default]
+    Total,
+    /// The direct light: the global light measured with the projector's
+    /// checker ([`separation`]) subtracted from every view. A scan without
+    /// a checker capture is fitted to its total light, with a note.
+    Direct,
+}
+
+impl FitLight {
+    pub const ALL: [FitLight; 2] = [FitLight::Total, FitLight::Direct];
+
+    /// The name on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            FitLight::Total => "total",
+            FitLight::Direct => "direct",
+        }
+    }
+}
+
+impl std::fmt::Display for FitLight {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// A `--fit-light` value that is not one.
+#[derive(Debug, thiserror::Error)]
+#[error("unknown fit light {0:?}: expected total or direct")]
+pub struct UnknownFitLight(pub String);
+
+impl std::str::FromStr for FitLight {
+    type Err = UnknownFitLight;
+
+    fn from_str(s: &str) -> Result<FitLight, UnknownFitLight> {
+        FitLight::ALL
+            .into_iter()
+            .find(|l| l.name() == s)
+            .ok_or_else(|| UnknownFitLight(s.to_string()))
+    }
 }
 
 impl Default for FitOptions {
@@ -104,7 +149,7 @@ impl Default for FitOptions {
             metallic_contrast: 0.05,
             island_radius: 2,
             basecolor_pull: 2.0,
-            separate_global: true,
+            light: FitLight::default(),
         }
     }
 }
@@ -209,7 +254,7 @@ pub fn fit_scene(
         }
         lighting.push(l);
     }
-    if options.separate_global {
+    if options.light == FitLight::Direct {
         subtract_global(bundle, calibration, inputs, &mut lighting, &mut notes)?;
     }
     let mask = &inputs.mask.data;

@@ -289,3 +289,16 @@ fn at_the_roughest_lobe_a_dielectric_call_is_kept_and_a_metal_call_is_left_to_th
     );
     assert_eq!(metal_against_a_dielectric_network.metallic, 0.0);
 }
+
+#[test]
+fn fit_light_names_round_trip_and_a_wrong_one_says_what_was_expected() {
+    for light in FitLight::ALL {
+        assert_eq!(light.name().parse::<FitLight>().ok(), Some(light));
+    }
+    assert_eq!(FitLight::default(), FitOptions::default().light);
+    let e = "global".parse::<FitLight>().err().map(|e| e.to_string());
+    assert_eq!(
+        e.as_deref(),
+        Some("unknown fit light \"global\": expected total or direct")
+    );
+}

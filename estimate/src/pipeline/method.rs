@@ -32,14 +32,23 @@ pub enum Method {
     #[default]
     #[serde(rename = "fit-metallic")]
     FitMetallic,
+    /// The specular lobe's parameters, metallic and roughness, as
+    /// [`Method::Hybrid`] answers them (the fit's per material, the
+    /// networks' where the photos pin nothing); basecolor by its network
+    /// fed them. The fit's basecolor is the one answer it does not give:
+    /// under a local surface model a material that scatters light inside
+    /// reads dark.
+    #[serde(rename = "fit-specular")]
+    FitSpecular,
 }
 
 impl Method {
-    pub const ALL: [Method; 4] = [
+    pub const ALL: [Method; 5] = [
         Method::Networks,
         Method::Fit,
         Method::Hybrid,
         Method::FitMetallic,
+        Method::FitSpecular,
     ];
 
     pub fn name(self) -> &'static str {
@@ -48,6 +57,7 @@ impl Method {
             Method::Fit => "fit",
             Method::Hybrid => "hybrid",
             Method::FitMetallic => "fit-metallic",
+            Method::FitSpecular => "fit-specular",
         }
     }
 
@@ -74,6 +84,15 @@ impl Method {
                 &[Param::Metallic, Param::Transmission, Param::Subsurface],
                 &[Param::Roughness, Param::Basecolor],
             ),
+            Method::FitSpecular => (
+                &[
+                    Param::Metallic,
+                    Param::Transmission,
+                    Param::Subsurface,
+                    Param::Roughness,
+                ],
+                &[Param::Basecolor],
+            ),
         }
     }
 
@@ -83,6 +102,8 @@ impl Method {
         match (self, kind) {
             (Method::FitMetallic, Param::Metallic) => Method::Hybrid,
             (Method::FitMetallic, _) => Method::Networks,
+            (Method::FitSpecular, Param::Metallic | Param::Roughness) => Method::Hybrid,
+            (Method::FitSpecular, _) => Method::Networks,
             (m, Param::Basecolor | Param::Roughness | Param::Metallic) => m,
             _ => Method::Networks,
         }
@@ -97,7 +118,7 @@ impl fmt::Display for Method {
 
 /// A method name that is not one.
 #[derive(Debug, thiserror::Error)]
-#[error("unknown method {0:?}: expected networks, fit, hybrid or fit-metallic")]
+#[error("unknown method {0:?}: expected networks, fit, hybrid, fit-metallic or fit-specular")]
 pub struct UnknownMethod(pub String);
 
 impl FromStr for Method {
@@ -137,6 +158,14 @@ mod tests {
         );
         assert_eq!(Method::Fit.answering(Param::Basecolor), Method::Fit);
         assert_eq!(
+            Method::FitSpecular.answering(Param::Roughness),
+            Method::Hybrid
+        );
+        assert_eq!(
+            Method::FitSpecular.answering(Param::Basecolor),
+            Method::Networks
+        );
+        assert_eq!(
             Method::Hybrid.answering(Param::Subsurface),
             Method::Networks
         );
@@ -150,7 +179,7 @@ mod tests {
         let e = "physics".parse::<Method>().err().map(|e| e.to_string());
         assert_eq!(
             e.as_deref(),
-            Some("unknown method \"physics\": expected networks, fit, hybrid or fit-metallic")
+            Some("unknown method \"physics\": expected networks, fit, hybrid, fit-metallic or fit-specular")
         );
     }
 }

@@ -60,8 +60,9 @@ pub struct ParamResult {
     pub views: Option<usize>,
     /// Which estimator answered an estimated parameter: `networks`, `fit`
     /// or `hybrid` (the fit where the photos pinned the value, the
-    /// networks elsewhere); under `fit-metallic`, `fit` for metallic and
-    /// `networks` for basecolor and roughness.
+    /// networks elsewhere); under `fit-metallic`, `hybrid` for metallic
+    /// and `networks` for basecolor and roughness; under `fit-specular`,
+    /// `hybrid` for metallic and roughness and `networks` for basecolor.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub method: Option<String>,
     /// Share of the reference's object pixels whose value the photos

@@ -598,7 +598,11 @@ fn fit_values(
     };
     let grey = vec![[0.5f32; 3]; n];
     let half = vec![0.5f32; n];
-    let fallback = matches!(method, Method::Hybrid | Method::FitMetallic).then(|| Fallback {
+    let fallback = matches!(
+        method,
+        Method::Hybrid | Method::FitMetallic | Method::FitSpecular
+    )
+    .then(|| Fallback {
         basecolor: values.basecolor.as_deref().unwrap_or(&grey),
         roughness: values
             .scalar

@@ -65,7 +65,7 @@ pub enum Knob {
     /// networks (`matscan estimate --refine N`; 0 = networks only).
     Refine,
     /// Who answers basecolor, roughness and metallic (`matscan estimate
-    /// --method`): networks, fit, hybrid, fit-metallic.
+    /// --method`): networks, fit, hybrid, fit-metallic, fit-specular.
     Method,
 }
 

@@ -8,6 +8,7 @@ use super::tables::{geometry_family, scene_group, GroupBy, SceneResult};
 use crate::scans::{usable_views, view_filter};
 use anyhow::{Context, Result};
 use burn::tensor::Device;
+use matscan_estimate::fit::FitOptions;
 use matscan_estimate::pipeline::metrics::error_metrics;
 use matscan_estimate::pipeline::run::{estimate_prepared, PreparedScan};
 use matscan_estimate::{EstimateOptions, ModelSource, References};
@@ -146,6 +147,10 @@ pub(super) fn chained_configurations(
                 },
                 calib,
                 method: args.method.unwrap_or_default(),
+                fit: FitOptions {
+                    light: args.fit_light.unwrap_or_default(),
+                    ..FitOptions::default()
+                },
                 ..EstimateOptions::default()
             };
             let textures = &mut c.textures;

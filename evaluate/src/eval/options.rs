@@ -31,6 +31,8 @@ pub struct EvalOptions {
     /// estimate (`None`: the estimator's default). The truth-fed protocol
     /// measures the networks alone and takes no method.
     pub method: Option<matscan_estimate::pipeline::method::Method>,
+    /// Which light the physical fit explains (`None`: the fit's default).
+    pub fit_light: Option<matscan_estimate::fit::FitLight>,
 }
 
 /// The printed tables and the CSV of one evaluation.
