@@ -656,3 +656,43 @@ fn the_fit_to_direct_light_separates_the_global_light_with_the_checker_and_says_
         "{without:?}"
     );
 }
+
+#[test]
+fn fit_specular_is_fit_metallic_with_the_fits_roughness_where_the_photos_pin_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let scan = scan_copy(dir.path());
+    let specular = run_method(&scan, dir.path(), Method::FitSpecular, "specular");
+    run_method(&scan, dir.path(), Method::FitMetallic, "fit-metallic");
+    for p in ["metallic", "subsurface", "transmission"] {
+        assert_eq!(
+            map_in(dir.path(), "specular", p),
+            map_in(dir.path(), "fit-metallic", p),
+            "{p}"
+        );
+    }
+    let basecolor = |out: &str| {
+        matscan_scan::image_io::read_rgb_exr(&dir.path().join(out).join("p0").join("basecolor.exr"))
+            .unwrap()
+            .data
+    };
+    assert_eq!(basecolor("specular"), basecolor("fit-metallic"));
+    let roughness = specular.param(Param::Roughness).unwrap();
+    assert_eq!(roughness.method.as_deref(), Some("hybrid"));
+    let share = roughness.constrained.expect("the fit says what it pinned");
+    let (ours, theirs) = (
+        map_in(dir.path(), "specular", "roughness"),
+        map_in(dir.path(), "fit-metallic", "roughness"),
+    );
+    // Only pinned pixels may differ from the networks' roughness (this
+    // small scan pins none: every pixel must be the network's).
+    let changed = ours.iter().zip(&theirs).filter(|(a, b)| a != b).count();
+    let pixels = ours.len() as f32;
+    assert!(
+        changed as f32 <= share * pixels + 0.5,
+        "{changed} changed, {share} pinned"
+    );
+    assert_eq!(
+        specular.param(Param::Basecolor).unwrap().method.as_deref(),
+        Some("networks")
+    );
+}

@@ -186,8 +186,8 @@ pub struct MaterialFit {
     pub roughness_pinned: bool,
     pub metallic_pinned: bool,
     /// Fitted to its total light, not its direct light: the direct light
-    /// called it metal, the total light dielectric, the signature of a
-    /// material that scatters light inside.
+    /// pinned it as metal and the total light did not, the signature of a
+    /// material that scatters light inside or through it.
     #[serde(default)]
     pub scattering: bool,
 }
@@ -214,6 +214,21 @@ pub struct Fitted {
     /// Views left out, and similar.
     pub notes: Vec<String>,
     pub seconds: f64,
+}
+
+impl Fitted {
+    /// Writes the fitted roughness into `roughness` at the pixels whose
+    /// material pinned it, leaving every other pixel as it was.
+    pub fn pinned_roughness_into(&self, roughness: &mut [f32]) {
+        for ((r, label), fit) in roughness.iter_mut().zip(&self.labels).zip(&self.roughness) {
+            let pinned = label
+                .and_then(|j| self.materials.get(j))
+                .is_some_and(|m| m.roughness_pinned);
+            if pinned && fit.is_finite() {
+                *r = *fit;
+            }
+        }
+    }
 }
 
 /// One pixel's cost and basecolor at each grid point (metallic-major),
@@ -504,12 +519,13 @@ where
             }
         }
         let mut material = choose(&by_direct, &grid, &list, known, fallback, options);
-        // A material whose direct light calls it metal but whose total
-        // light calls it dielectric scatters light inside: its direct
+        // A material whose direct light pins it as metal but whose total
+        // light does not scatters light inside or through it: its direct
         // light is its specular lobe alone (a metal's signature), its
-        // total light the diffuse light it scatters back. Metals scatter
-        // nothing inside, so such a material is fitted to its total light.
-        if separated && known.metallic.is_none() && calls_metal(&by_direct, grid.len()) {
+        // total light the light it scatters back. Metals scatter nothing
+        // inside, so such a material is fitted to its total light.
+        let pinned_metal = |m: &MaterialFit| m.metallic_pinned && m.metallic >= 0.5;
+        if separated && known.metallic.is_none() && pinned_metal(&material) {
             let by_total = list
                 .par_iter()
                 .filter_map(|&i| volume_of(i, &total_light[i]))
@@ -518,9 +534,12 @@ where
                     || vec![0.0f64; points],
                     |a, b| a.iter().zip(&b).map(|(x, y)| x + y).collect(),
                 );
-            if !calls_metal(&by_total, grid.len()) {
-                material = choose(&by_total, &grid, &list, known, fallback, options);
-                material.scattering = true;
+            let in_total = choose(&by_total, &grid, &list, known, fallback, options);
+            if !pinned_metal(&in_total) {
+                material = MaterialFit {
+                    scattering: true,
+                    ..in_total
+                };
             }
         }
         materials.push(material);
@@ -775,13 +794,6 @@ fn argmin(v: &[f64]) -> Option<usize> {
         .filter(|(_, c)| c.is_finite())
         .min_by(|a, b| a.1.total_cmp(b.1))
         .map(|(i, _)| i)
-}
-
-/// Whether the summed cost volume `total` (dielectric row, then metal
-/// row, `r` roughnesses each) is least in the metal row.
-fn calls_metal(total: &[f64], r: usize) -> bool {
-    let least = |row: &[f64]| row.iter().copied().fold(f64::INFINITY, f64::min);
-    total.len() >= 2 * r && least(&total[r..2 * r]) < least(&total[..r])
 }
 
 /// A material's roughness and metallic from its summed cost volume.

@@ -302,3 +302,34 @@ fn fit_light_names_round_trip_and_a_wrong_one_says_what_was_expected() {
         Some("unknown fit light \"global\": expected total or direct")
     );
 }
+
+#[test]
+fn pinned_roughness_replaces_only_the_pixels_of_materials_that_pinned_it() {
+    let material = |roughness: f32, pinned: bool| MaterialFit {
+        pixels: 1,
+        basecolor: [0.5; 3],
+        roughness,
+        metallic: 0.0,
+        roughness_pinned: pinned,
+        metallic_pinned: true,
+        scattering: false,
+    };
+    let fitted = Fitted {
+        basecolor: vec![[0.5; 3]; 4],
+        roughness: vec![0.2, 0.9, 0.2, f32::NAN],
+        metallic: vec![0.0; 4],
+        labels: vec![Some(0), Some(1), None, Some(0)],
+        materials: vec![material(0.2, true), material(0.9, false)],
+        constrained: Constrained {
+            basecolor: 0.5,
+            roughness: 0.5,
+            metallic: 0.5,
+        },
+        notes: Vec::new(),
+        seconds: 0.0,
+    };
+    let mut roughness = vec![0.6f32; 4];
+    fitted.pinned_roughness_into(&mut roughness);
+    // Pinned; unpinned material; outside every material; pinned but NaN.
+    assert_eq!(roughness, vec![0.2, 0.6, 0.6, 0.6]);
+}

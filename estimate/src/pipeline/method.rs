@@ -32,12 +32,12 @@ pub enum Method {
     #[default]
     #[serde(rename = "fit-metallic")]
     FitMetallic,
-    /// The specular lobe's parameters, metallic and roughness, as
-    /// [`Method::Hybrid`] answers them (the fit's per material, the
-    /// networks' where the photos pin nothing); basecolor by its network
-    /// fed them. The fit's basecolor is the one answer it does not give:
-    /// under a local surface model a material that scatters light inside
-    /// reads dark.
+    /// [`Method::FitMetallic`], and then roughness as [`Method::Hybrid`]
+    /// answers it: the specular lobe's parameters, metallic and roughness,
+    /// are the fit's where the photos pin them. Basecolor is the
+    /// `fit-metallic` chain's (its network fed the roughness network's
+    /// answer): on `tune`, fed the fit's roughness instead, it measured
+    /// worse (docs/results.md).
     #[serde(rename = "fit-specular")]
     FitSpecular,
 }
@@ -85,15 +85,16 @@ impl Method {
                 &[Param::Roughness, Param::Basecolor],
             ),
             Method::FitSpecular => (
-                &[
-                    Param::Metallic,
-                    Param::Transmission,
-                    Param::Subsurface,
-                    Param::Roughness,
-                ],
-                &[Param::Basecolor],
+                &[Param::Metallic, Param::Transmission, Param::Subsurface],
+                &[Param::Roughness, Param::Basecolor],
             ),
         }
+    }
+
+    /// Whether the fit's roughness, where the photos pin it, replaces the
+    /// networks' after the networks that follow the fit have run.
+    pub fn fit_roughness_last(self) -> bool {
+        self == Method::FitSpecular
     }
 
     /// Who answers `kind` under this method, as `result.toml` names it:

@@ -464,11 +464,16 @@ impl Pass<'_> {
         let mut values = held_values(self.plan, inputs)?;
         let mut runs = BTreeMap::new();
         self.run_networks(before, inputs, &mut values, &mut runs)?;
+        let mut fitted = None;
         if self.method.fits() {
-            let fitted = self.fit_values(&mut values, inputs)?;
-            fits.add(self.method, &fitted, self.bundle, inputs);
+            let f = self.fit_values(&mut values, inputs)?;
+            fits.add(self.method, &f, self.bundle, inputs);
+            fitted = Some(f);
         }
         self.run_networks(after, inputs, &mut values, &mut runs)?;
+        if let Some(f) = fitted.filter(|_| self.method.fit_roughness_last()) {
+            pinned_roughness_over(&mut values, self.plan, &f);
+        }
         let confidence = refine_values(
             &mut values,
             self.plan,
@@ -636,6 +641,17 @@ fn fit_values(
             .insert(Param::Metallic, fitted.metallic.clone());
     }
     Ok(fitted)
+}
+
+/// Puts the fit's roughness into `values` at the pixels whose material
+/// pinned it (an estimated roughness only).
+fn pinned_roughness_over(values: &mut Values, plan: &Plan, fitted: &Fitted) {
+    if *plan.decision(Param::Roughness) != Decision::Estimate {
+        return;
+    }
+    if let Some(roughness) = values.scalar.get_mut(&Param::Roughness) {
+        fitted.pinned_roughness_into(roughness);
+    }
 }
 
 /// What the refinements of all positions did, together.
