@@ -67,10 +67,10 @@ pub struct EstimateArgs {
     /// Who answers basecolor, roughness and metallic: networks (the
     /// thesis's), fit (the physical fit to the photos under the calibrated
     /// lights), hybrid (the fit where the photos pin a value, the networks
-    /// elsewhere), fit-metallic (the default: metallic as hybrid answers
-    /// it, basecolor and roughness by their networks fed that metallic) or
-    /// fit-specular (metallic and roughness as hybrid answers them,
-    /// basecolor by its network fed them).
+    /// elsewhere), fit-metallic (metallic as hybrid answers it, basecolor
+    /// and roughness by their networks fed that metallic) or fit-specular
+    /// (the default: fit-metallic, then the fit's roughness where the
+    /// photos pin it).
     /// Transmission and subsurface come from their networks under every
     /// method.
     #[arg(long, default_value_t = Method::default())]

@@ -56,13 +56,13 @@ pub struct EvalArgs {
     pub textures: Option<u32>,
     /// Who answers basecolor, roughness and metallic in the chained
     /// estimate: networks, fit, hybrid, fit-metallic or fit-specular (see `matscan
-    /// estimate --help`; default: the estimator's, fit-metallic). The
+    /// estimate --help`; default: the estimator's, fit-specular). The
     /// truth-fed protocol measures the networks alone.
     #[arg(long)]
     pub method: Option<Method>,
-    /// Which light the physical fit explains: total (lit minus ambient, the
-    /// default) or direct (the global light measured with the projector's
-    /// checker subtracted; see `matscan estimate --help`).
+    /// Which light the physical fit explains: total (lit minus ambient) or
+    /// direct (the default: the global light measured with the
+    /// projector's checker subtracted; see `matscan estimate --help`).
     #[arg(long, value_name = "LIGHT")]
     pub fit_light: Option<FitLight>,
 }

@@ -97,11 +97,13 @@ pub struct FitOptions {
 pub enum FitLight {
     /// Lit minus ambient as it is: direct light and global light
     /// (interreflections, light scattered inside) together.
-    #[default]
     Total,
     /// The direct light: the global light measured with the projector's
     /// checker ([`separation`]) subtracted from every view. A scan without
-    /// a checker capture is fitted to its total light, with a note.
+    /// a checker capture is fitted to its total light, with a note. The
+    /// default: on `tune` it lowers metallic's MAD (0.140 to 0.130) and
+    /// roughness's (0.184 to 0.174) for 0.002 of basecolor's.
+    #[default]
     Direct,
 }
 

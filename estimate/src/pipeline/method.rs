@@ -25,11 +25,6 @@ pub enum Method {
     /// roughness and basecolor networks then run fed that metallic, as the
     /// thesis's chain feeds them the metallic network's. Subsurface stays
     /// fed the metallic network's answer, which measured better for it.
-    ///
-    /// The default: on the `tune` set it has the lowest MAD of the methods
-    /// for roughness and subsurface, and within 0.002 of the lowest for
-    /// basecolor and metallic (docs/results.md).
-    #[default]
     #[serde(rename = "fit-metallic")]
     FitMetallic,
     /// [`Method::FitMetallic`], and then roughness as [`Method::Hybrid`]
@@ -38,6 +33,13 @@ pub enum Method {
     /// `fit-metallic` chain's (its network fed the roughness network's
     /// answer): on `tune`, fed the fit's roughness instead, it measured
     /// worse (docs/results.md).
+    ///
+    /// The default: on the `tune` set, with the fit explaining the direct
+    /// light, it has the lowest MAD of the methods for metallic and
+    /// subsurface and is within 0.002 of the lowest for basecolor; of
+    /// roughness, three tried variants read it better and each loses more
+    /// elsewhere (docs/results.md).
+    #[default]
     #[serde(rename = "fit-specular")]
     FitSpecular,
 }
