@@ -37,7 +37,7 @@ pub enum Method {
     /// The default: on the `tune` set, with the fit explaining the direct
     /// light, it has the lowest MAD of the methods for metallic and
     /// subsurface and is within 0.002 of the lowest for basecolor; of
-    /// roughness, three tried variants read it better and each loses more
+    /// roughness, four tried variants read it better and each loses more
     /// elsewhere (docs/results.md).
     #[default]
     #[serde(rename = "fit-specular")]
