@@ -586,7 +586,7 @@ fn fit_metallic_answers_metallic_by_the_fit_and_keeps_the_networks_chain_elsewhe
 }
 
 #[test]
-fn fit_metallic_without_light_intensities_keeps_the_metallic_networks_answer() {
+fn fit_metallic_and_fit_specular_without_light_intensities_keep_the_networks_answers() {
     let dir = tempfile::tempdir().unwrap();
     let scan = scan_copy(dir.path());
     // A rig without radiometric calibration: no light intensity anywhere.
@@ -599,23 +599,26 @@ fn fit_metallic_without_light_intensities_keeps_the_metallic_networks_answer() {
     }
     std::fs::write(&path, manifest.to_toml()).unwrap();
     let networks = run_method(&scan, dir.path(), Method::Networks, "networks");
-    let chosen = run_method(&scan, dir.path(), Method::FitMetallic, "fit-metallic");
-    // Nothing is pinned, so every map equals the networks' own chain.
-    assert_eq!(
-        chosen.param(Param::Metallic).unwrap().constrained,
-        Some(0.0)
-    );
-    for p in ["metallic", "roughness", "subsurface"] {
+    for method in [Method::FitMetallic, Method::FitSpecular] {
+        let chosen = run_method(&scan, dir.path(), method, method.name());
+        // Nothing is pinned, so every map equals the networks' own chain.
         assert_eq!(
-            map_in(dir.path(), "networks", p),
-            map_in(dir.path(), "fit-metallic", p),
-            "{p}"
+            chosen.param(Param::Metallic).unwrap().constrained,
+            Some(0.0),
+            "{method}"
         );
+        for p in ["metallic", "roughness", "subsurface"] {
+            assert_eq!(
+                map_in(dir.path(), "networks", p),
+                map_in(dir.path(), method.name(), p),
+                "{method}: {p}"
+            );
+        }
+        assert!(chosen
+            .fit
+            .as_ref()
+            .is_some_and(|f| f.scale.starts_with("none")));
     }
-    assert!(chosen
-        .fit
-        .as_ref()
-        .is_some_and(|f| f.scale.starts_with("none")));
     assert_eq!(
         networks.param(Param::Metallic).unwrap().method.as_deref(),
         Some("networks")
