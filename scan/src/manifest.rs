@@ -170,6 +170,17 @@ impl Capture {
             _ => CaptureRole::Other,
         }
     }
+
+    /// The share of its light's full output that a capture without a
+    /// pattern (1) or with a uniform one (its level, clamped to [0, 1])
+    /// shows; `None` for a checker or a level that is not finite.
+    pub fn uniform_level(&self) -> Option<f64> {
+        match self.pattern {
+            None => Some(1.0),
+            Some(Pattern::Uniform { level }) if level.is_finite() => Some(level.clamp(0.0, 1.0)),
+            Some(_) => None,
+        }
+    }
 }
 
 impl Position {

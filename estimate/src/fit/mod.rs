@@ -39,7 +39,9 @@ pub mod separation;
 
 use crate::pipeline::inputs::{SceneInputs, ViewPlanes};
 use crate::refine::model::{directions, Fixed};
-use crate::refine::observe::{calibrated_lighting, seen, ViewLighting};
+use crate::refine::observe::{
+    calibrated_lighting, light_exposure, point_light, seen, ViewLighting,
+};
 use crate::refine::RefineError;
 use linear::{
     footprint_alpha2, responses, solve, solve_pulled, LinearFit, Noise, Pull, Response, Sample,
@@ -49,7 +51,7 @@ use matscan_calib::ScanCalibration;
 use matscan_scan::Bundle;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use std::collections::HashMap;
+use std::collections::hash_map::{Entry, HashMap};
 use std::time::Instant;
 
 /// The roughness grid: log-spaced from 0.02 (just above the delta
@@ -291,9 +293,9 @@ pub fn fit_scene(
 }
 
 /// Gives every calibrated view the global light its light puts on each
-/// reference pixel: the position's global light at full projector white
-/// ([`separation::global_light`]) scaled by the ratio of the view's
-/// calibrated light to the projector's, then warped into the reference.
+/// reference pixel: its position's global light at full projector white
+/// ([`separation::global_light`], warped into the reference once) scaled
+/// by the ratio of the view's calibrated light to the projector's.
 fn subtract_global(
     bundle: &Bundle,
     calibration: &ScanCalibration,
@@ -301,112 +303,108 @@ fn subtract_global(
     lighting: &mut [Option<ViewLighting>],
     notes: &mut Vec<String>,
 ) -> Result<(), RefineError> {
-    let mut measured: HashMap<String, Option<separation::GlobalLight>> = HashMap::new();
+    let mut by_position: HashMap<&str, Option<ReferenceGlobal>> = HashMap::new();
     for (planes, lighting) in inputs.views.iter().zip(lighting.iter_mut()) {
         let Some(lighting) = lighting.as_mut() else {
             continue;
         };
-        let view = &planes.view;
-        if !measured.contains_key(&view.position) {
-            let global = match separation::global_light(bundle, calibration, &view.position)? {
-                Ok(g) => {
-                    notes.push(format!(
-                        "position {}: global light separated with the checker of `{}`, \
-                         measured on {:.0} % of the object",
-                        view.position,
-                        g.projector,
-                        100.0 * g.measured
-                    ));
-                    Some(g)
-                }
-                Err(why) => {
-                    notes.push(format!("{why}: the fit takes the photos' light as direct"));
-                    None
-                }
-            };
-            measured.insert(view.position.clone(), global);
+        let position = planes.view.position.as_str();
+        let global = match by_position.entry(position) {
+            Entry::Occupied(e) => e.into_mut(),
+            Entry::Vacant(e) => e.insert(reference_global(
+                bundle,
+                calibration,
+                inputs,
+                planes,
+                notes,
+            )?),
+        };
+        if let Some(global) = global {
+            lighting.global = Some(global.under(&lighting.light));
         }
-        let Some(global) = measured.get(&view.position).and_then(Option::as_ref) else {
-            continue;
-        };
-        let Some(rgb) = view_global(bundle, calibration, planes, global)? else {
-            continue;
-        };
-        lighting.global = Some(if view.position == inputs.reference {
-            rgb.data
-        } else {
-            calibration
-                .correspondence(&inputs.reference, &view.position)
-                .ok_or_else(|| RefineError::MissingMaps(view.to_string()))?
-                .warp_rgb(&rgb, "global light")?
-                .data
-        });
     }
     Ok(())
 }
 
-/// The global light of `planes`' view in its position's own image (NaN
-/// where unmeasured), or `None` where the manifest lacks an intensity.
-fn view_global(
+/// One position's global light at full projector white and the
+/// projector's calibrated light, both per reference pixel.
+struct ReferenceGlobal {
+    /// NaN where unmeasured.
+    rgb: Vec<[f32; 3]>,
+    projector: Vec<[f32; 3]>,
+}
+
+impl ReferenceGlobal {
+    /// The global light that a view whose calibrated light is `light`
+    /// puts on each pixel (NaN where unmeasured).
+    fn under(&self, light: &[[f32; 3]]) -> Vec<[f32; 3]> {
+        self.rgb
+            .iter()
+            .zip(&self.projector)
+            .zip(light)
+            .map(|((g, p), l)| {
+                std::array::from_fn(|c| {
+                    if p[c] > 0.0 && p[c].is_finite() {
+                        g[c] * l[c] / p[c]
+                    } else {
+                        f32::NAN
+                    }
+                })
+            })
+            .collect()
+    }
+}
+
+/// The global light of `planes`' position in the reference, or `None`
+/// with a note saying why the fit takes that position's light as direct.
+fn reference_global(
     bundle: &Bundle,
     calibration: &ScanCalibration,
+    inputs: &SceneInputs,
     planes: &ViewPlanes,
-    global: &separation::GlobalLight,
-) -> Result<Option<matscan_scan::raster::RgbRaster>, RefineError> {
-    let view = &planes.view;
-    let position = bundle.position(&view.position)?;
-    let capture = bundle.capture(&view.position, &view.capture)?;
-    let light_of = |name: &str| position.lights.iter().find(|l| l.name == name);
-    let (Some(light), Some(projector)) = (light_of(&view.light), light_of(&global.projector))
-    else {
-        return Ok(None);
-    };
-    let usable = |i: Option<f64>| i.filter(|i| i.is_finite() && *i > 0.0);
-    let (Some(intensity), Some(projector_intensity)) =
-        (usable(light.intensity), usable(projector.intensity))
-    else {
-        return Ok(None);
-    };
-    let level = match &capture.pattern {
-        None => 1.0,
-        Some(matscan_scan::Pattern::Uniform { level }) if level.is_finite() => {
-            level.clamp(0.0, 1.0)
+    notes: &mut Vec<String>,
+) -> Result<Option<ReferenceGlobal>, RefineError> {
+    let position = planes.view.position.as_str();
+    let global = match separation::global_light(bundle, calibration, position)? {
+        Ok(g) => g,
+        Err(why) => {
+            notes.push(format!("{why}: the fit takes the photos' light as direct"));
+            return Ok(None);
         }
-        Some(_) => return Ok(None),
     };
-    let maps = calibration
-        .position(&view.position)
-        .ok_or_else(|| RefineError::MissingMaps(view.to_string()))?;
-    let distance = |name: &str| {
-        maps.maps
-            .light(name)
-            .map(|l| &l.distance)
-            .ok_or_else(|| RefineError::MissingMaps(format!("{view}: {name}")))
+    let Some(projector) = point_light(
+        bundle,
+        calibration,
+        &inputs.reference,
+        position,
+        &global.projector,
+        light_exposure(planes),
+    )?
+    else {
+        notes.push(format!(
+            "position {position}: no intensity of `{}`: the fit takes the photos' light as direct",
+            global.projector
+        ));
+        return Ok(None);
     };
-    let (d_view, d_projector) = (distance(&view.light)?, distance(&global.projector)?);
-    let mask = &maps.maps.geometry.mask;
-    let data = (0..global.rgb.len())
-        .map(|i| {
-            let (Some(g), Some(&dv), Some(&dp)) =
-                (global.rgb[i], d_view.data.get(i), d_projector.data.get(i))
-            else {
-                return [f32::NAN; 3];
-            };
-            let (dv, dp) = (f64::from(dv), f64::from(dp));
-            if !(dv > 1e-6 && dp > 1e-6 && dv.is_finite() && dp.is_finite()) {
-                return [f32::NAN; 3];
-            }
-            std::array::from_fn(|c| {
-                let ratio = (intensity * level * light.color[c] / (dv * dv))
-                    / (projector_intensity * projector.color[c].max(1e-6) / (dp * dp));
-                (f64::from(g[c]) * ratio) as f32
-            })
-        })
-        .collect();
-    Ok(Some(matscan_scan::raster::RgbRaster {
-        width: mask.width,
-        height: mask.height,
-        data,
+    let rgb = if position == inputs.reference {
+        global.rgb.data
+    } else {
+        calibration
+            .correspondence(&inputs.reference, position)
+            .ok_or_else(|| RefineError::MissingMaps(position.to_string()))?
+            .warp_rgb(&global.rgb, "global light")?
+            .data
+    };
+    notes.push(format!(
+        "position {position}: global light separated with the checker of `{}`, \
+         measured on {:.0} % of the object",
+        global.projector,
+        100.0 * global.measured
+    ));
+    Ok(Some(ReferenceGlobal {
+        rgb,
+        projector: projector.light,
     }))
 }
 
@@ -441,39 +439,36 @@ where
         .iter()
         .flatten()
         .any(|s| s.global.iter().any(|&g| g > 0.0));
-    let direct: Vec<Vec<Sample>> = if separated {
+    let direct: Option<Vec<Vec<Sample>>> = separated.then(|| {
         total_light
             .par_iter()
             .map(|obs| obs.iter().map(Sample::direct).collect())
             .collect()
-    } else {
-        total_light.clone()
-    };
+    });
+    let direct_at =
+        |i: usize| -> &[Sample] { direct.as_ref().unwrap_or(&total_light)[i].as_slice() };
     let volume_of = |i: usize, obs: &[Sample]| -> Option<Volume> {
         if !mask[i] || obs.is_empty() {
             return None;
         }
-        {
-            let fixed = fixed_at(i);
-            let points = grid.len() * METALLIC_GRID.len();
-            let mut cost = Vec::with_capacity(points);
-            let mut basecolor = Vec::with_capacity(points);
-            let mut weight = 0.0;
-            for &m in &METALLIC_GRID {
-                for &r in &grid {
-                    let fit = solve(obs, &responses(obs, r, m, &fixed), &options.noise);
-                    cost.push(fit.cost);
-                    basecolor.push(fit.basecolor);
-                    weight = fit.weight;
-                }
+        let fixed = fixed_at(i);
+        let points = grid.len() * METALLIC_GRID.len();
+        let mut cost = Vec::with_capacity(points);
+        let mut basecolor = Vec::with_capacity(points);
+        let mut weight = 0.0;
+        for &m in &METALLIC_GRID {
+            for &r in &grid {
+                let fit = solve(obs, &responses(obs, r, m, &fixed), &options.noise);
+                cost.push(fit.cost);
+                basecolor.push(fit.basecolor);
+                weight = fit.weight;
             }
-            (weight > 0.0).then_some(Volume { cost, basecolor })
         }
+        (weight > 0.0).then_some(Volume { cost, basecolor })
     };
-    let volumes: Vec<Option<Volume>> = direct
-        .par_iter()
-        .enumerate()
-        .map(|(i, obs)| volume_of(i, obs))
+    let volumes: Vec<Option<Volume>> = (0..n)
+        .into_par_iter()
+        .map(|i| volume_of(i, direct_at(i)))
         .collect();
 
     // Each pixel's apparent albedo (as a rough dielectric) places it among
@@ -550,7 +545,7 @@ where
         if materials[j].scattering {
             &total_light[i]
         } else {
-            &direct[i]
+            direct_at(i)
         }
     };
 

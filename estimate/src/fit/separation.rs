@@ -26,7 +26,8 @@
 use crate::pipeline::inputs::scaled_photo;
 use crate::refine::RefineError;
 use matscan_calib::ScanCalibration;
-use matscan_scan::{Bundle, CaptureRole, LightKind, Pattern};
+use matscan_scan::raster::RgbRaster;
+use matscan_scan::{Bundle, LightKind, Pattern};
 
 /// Pixels of margin to a checker edge, in the position's own image.
 pub const EDGE_MARGIN: usize = 2;
@@ -40,9 +41,9 @@ pub const FILL_RADIUS: usize = 4;
 pub struct GlobalLight {
     /// The projector it was measured with.
     pub projector: String,
-    /// Per pixel, `None` where neither the pixel nor any within
-    /// [`FILL_RADIUS`] could be measured.
-    pub rgb: Vec<Option<[f32; 3]>>,
+    /// In the position's camera image; NaN where neither the pixel nor
+    /// any within [`FILL_RADIUS`] could be measured.
+    pub rgb: RgbRaster,
     /// The share of the object's pixels measured directly (not filled).
     pub measured: f32,
 }
@@ -66,33 +67,19 @@ pub fn global_light(
     let Some(ambient) = pos.ambient() else {
         return Ok(Err(format!("position {position}: no ambient capture")));
     };
-    let lit_role = CaptureRole::Lit {
-        light: projector.name.clone(),
-    };
-    let Some((uniform, level)) = pos.captures.iter().find_map(|c| {
-        if c.role(&pos.lights) != lit_role {
-            return None;
-        }
-        match c.pattern {
-            None => Some((c, 1.0)),
-            Some(Pattern::Uniform { level }) if level.is_finite() && level > 0.0 => {
-                Some((c, level))
-            }
-            _ => None,
-        }
-    }) else {
+    let Some((uniform, level)) = pos
+        .lit_captures()
+        .filter(|(_, light)| *light == projector.name)
+        .find_map(|(c, _)| Some((c, c.uniform_level().filter(|&l| l > 0.0)?)))
+    else {
         return Ok(Err(format!(
             "position {position}: no uniform capture of `{}`",
             projector.name
         )));
     };
-    let pattern_role = CaptureRole::Pattern {
-        light: projector.name.clone(),
-    };
     let checker = pos
-        .captures
-        .iter()
-        .filter(|c| c.role(&pos.lights) == pattern_role)
+        .pattern_captures()
+        .filter(|c| c.lights.contains(&projector.name))
         .filter_map(|c| match c.pattern {
             Some(Pattern::Checker {
                 period_px,
@@ -170,10 +157,10 @@ pub fn global_light(
     let rgb = (0..n)
         .map(|i| {
             if !mask.data[i] {
-                return None;
+                return [f32::NAN; 3];
             }
-            if measured[i].is_some() {
-                return measured[i];
+            if let Some(g) = measured[i] {
+                return g;
             }
             let (x, y) = (i % w, i / w);
             let mut sum = [0.0f64; 3];
@@ -184,12 +171,19 @@ pub fn global_light(
                 }
                 count += 1;
             }
-            (count > 0).then(|| sum.map(|s| (s / count as f64) as f32))
+            if count == 0 {
+                return [f32::NAN; 3];
+            }
+            sum.map(|s| (s / count as f64) as f32)
         })
         .collect();
     Ok(Ok(GlobalLight {
         projector: projector.name.clone(),
-        rgb,
+        rgb: RgbRaster {
+            width: mask.width,
+            height: mask.height,
+            data: rgb,
+        },
         measured: direct as f32 / objects as f32,
     }))
 }

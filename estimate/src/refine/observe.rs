@@ -22,7 +22,7 @@ use super::model::{directions, white_response, Observation};
 use crate::pipeline::inputs::{SceneInputs, ViewPlanes};
 use matscan_calib::photos::luma;
 use matscan_calib::ScanCalibration;
-use matscan_scan::{Bundle, Pattern};
+use matscan_scan::Bundle;
 use serde::{Deserialize, Serialize};
 
 /// Where the light arriving at each pixel comes from.
@@ -61,42 +61,86 @@ pub fn calibrated_lighting(
     saturation: f32,
 ) -> Result<Option<ViewLighting>, RefineError> {
     let view = &planes.view;
-    let position = bundle.position(&view.position)?;
     let capture = bundle.capture(&view.position, &view.capture)?;
-    let Some(light) = position.lights.iter().find(|l| l.name == view.light) else {
+    let Some(level) = capture.uniform_level() else {
+        return Ok(None);
+    };
+    let Some(PointLight { light, lit }) = point_light(
+        bundle,
+        calibration,
+        reference,
+        &view.position,
+        &view.light,
+        light_exposure(planes) * level,
+    )?
+    else {
+        return Ok(None);
+    };
+    Ok(Some(ViewLighting {
+        light,
+        lit,
+        clip: clip_level(planes, saturation),
+        global: None,
+    }))
+}
+
+/// The exposure, s, that a view's calibrated light is given in: its
+/// photos' (the ambient exposure), 1 where that is not usable.
+pub fn light_exposure(planes: &ViewPlanes) -> f64 {
+    let ambient_exposure = planes.ambient_exposure();
+    if ambient_exposure.is_finite() && ambient_exposure > 0.0 {
+        ambient_exposure
+    } else {
+        1.0
+    }
+}
+
+/// A light of one position seen from the reference image.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PointLight {
+    /// White-Lambertian radiance at normal incidence per reference pixel,
+    /// RGB: `scale · I · colour / (π d²)`, 0 where the distance is not
+    /// usable.
+    pub light: Vec<[f32; 3]>,
+    /// The light's share of the pixel (1 lit, 0 shadow).
+    pub lit: Vec<f32>,
+}
+
+/// Light `name` of `position` per reference pixel from the manifest's
+/// intensity and the calibrated distance and shadow maps (warped into
+/// `reference`), scaled by `scale` (exposure times pattern level); `None`
+/// when the manifest gives the light no usable intensity.
+pub fn point_light(
+    bundle: &Bundle,
+    calibration: &ScanCalibration,
+    reference: &str,
+    position: &str,
+    name: &str,
+    scale: f64,
+) -> Result<Option<PointLight>, RefineError> {
+    let Some(light) = bundle.position(position)?.light(name) else {
         return Ok(None);
     };
     let Some(intensity) = light.intensity.filter(|i| i.is_finite() && *i >= 0.0) else {
         return Ok(None);
     };
-    let level = match &capture.pattern {
-        None => 1.0,
-        Some(Pattern::Uniform { level }) if level.is_finite() => level.clamp(0.0, 1.0),
-        Some(_) => return Ok(None),
-    };
-    let ambient_exposure = planes.ambient_exposure();
-    let exposure = if ambient_exposure.is_finite() && ambient_exposure > 0.0 {
-        ambient_exposure
-    } else {
-        1.0
-    };
     let maps = calibration
-        .position(&view.position)
-        .and_then(|p| p.maps.light(&view.light))
-        .ok_or_else(|| RefineError::MissingMaps(view.to_string()))?;
+        .position(position)
+        .and_then(|p| p.maps.light(name))
+        .ok_or_else(|| RefineError::MissingMaps(format!("{position}/{name}")))?;
     let lit_map = maps.lit.map(|&l| if l { 1.0f32 } else { 0.0 });
-    let (distance, lit) = if view.position == reference {
+    let (distance, lit) = if position == reference {
         (maps.distance.data.clone(), lit_map.data)
     } else {
         let c = calibration
-            .correspondence(reference, &view.position)
-            .ok_or_else(|| RefineError::MissingMaps(view.to_string()))?;
+            .correspondence(reference, position)
+            .ok_or_else(|| RefineError::MissingMaps(format!("{position}/{name}")))?;
         (
             c.warp_scalar(&maps.distance, "light distance")?.data,
             c.warp_scalar(&lit_map, "light shadow mask")?.data,
         )
     };
-    let k = exposure * intensity * level / std::f64::consts::PI;
+    let k = scale * intensity / std::f64::consts::PI;
     let light = distance
         .iter()
         .map(|&d| {
@@ -108,12 +152,7 @@ pub fn calibrated_lighting(
             }
         })
         .collect();
-    Ok(Some(ViewLighting {
-        light,
-        lit,
-        clip: clip_level(planes, saturation),
-        global: None,
-    }))
+    Ok(Some(PointLight { light, lit }))
 }
 
 /// The lighting of `planes` from the roughness network's illumination
