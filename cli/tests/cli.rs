@@ -55,16 +55,47 @@ fn demo_captures_through_the_daemon_estimates_and_prints_errors_and_timings() {
         String::from_utf8_lossy(&first.stderr)
     );
     assert!(out.contains("capture "), "{out}");
-    // A row per parameter; metallic is always estimable, with its error.
-    let metallic = out
+    // A row per parameter under a header that names who answered;
+    // metallic is always estimable, with its error.
+    let header: Vec<&str> = out
+        .lines()
+        .find(|l| l.starts_with("parameter"))
+        .unwrap_or_else(|| panic!("no table header in {out}"))
+        .split_whitespace()
+        .collect();
+    assert_eq!(
+        header,
+        [
+            "parameter",
+            "status",
+            "method",
+            "MAD",
+            "PSNR",
+            "dB",
+            "seconds"
+        ]
+    );
+    let metallic: Vec<&str> = out
         .lines()
         .find(|l| l.starts_with("metallic"))
-        .unwrap_or_else(|| panic!("no metallic row in {out}"));
-    let mad: f64 = metallic.split_whitespace().nth(2).unwrap().parse().unwrap();
-    assert!((0.0..=1.0).contains(&mad), "{metallic}");
+        .unwrap_or_else(|| panic!("no metallic row in {out}"))
+        .split_whitespace()
+        .collect();
+    assert_eq!(metallic[1], "estimated", "{metallic:?}");
+    // The simulated rig calibrates its lights, so the fit runs and answers
+    // metallic where the photos pin it, the networks elsewhere.
+    assert!(
+        ["hybrid", "networks"].contains(&metallic[2]),
+        "{metallic:?}"
+    );
+    let mad: f64 = metallic[3].parse().unwrap();
+    assert!((0.0..=1.0).contains(&mad), "{metallic:?}");
+    let seconds: f64 = metallic[5].parse().unwrap();
+    assert!(seconds > 0.0, "{metallic:?}");
     for p in ["basecolor", "roughness", "transmission", "subsurface"] {
         assert!(out.lines().any(|l| l.starts_with(p)), "{p} in {out}");
     }
+    assert!(out.contains("stages, s: "), "{out}");
     assert!(out.contains("estimate total"), "{out}");
     let scan = root.join("scans/scan-0001");
     assert!(scan.join("scan.toml").exists());
@@ -88,8 +119,16 @@ fn estimate_writes_the_contract_folder_and_reports_each_parameter() {
         "{out}{}",
         String::from_utf8_lossy(&o.stderr)
     );
-    assert!(out.contains("subsurface: given"), "{out}");
-    assert!(out.contains("metallic: estimated"), "{out}");
+    let row = |p: &str| -> Vec<String> {
+        out.lines()
+            .find(|l| l.starts_with(p))
+            .unwrap_or_else(|| panic!("no {p} row in {out}"))
+            .split_whitespace()
+            .map(str::to_string)
+            .collect()
+    };
+    assert_eq!(row("subsurface")[1..3], ["given", "given"], "{out}");
+    assert_eq!(row("metallic")[1], "estimated", "{out}");
     assert!(out.contains("MAD"), "{out}");
     assert!(scan.join("estimate/result.toml").exists());
     // A missing weights folder is named.

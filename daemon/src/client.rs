@@ -397,15 +397,15 @@ pub fn format_estimate(estimate: &Value) -> String {
     }
     let s = &estimate["summary"];
     let mut out = format!(
-        "estimate: {} views -> {}\n{:<13} {:<10} {:>8} {:>9} {:>8} {:>9}\n",
+        "estimate: {} views -> {}\n{:<13} {:<10} {:<9} {:>8} {:>8} {:>8}\n",
         s["views"],
         s["out"].as_str().unwrap_or("?"),
         "parameter",
         "status",
+        "method",
         "MAD",
-        "MSE",
         "PSNR dB",
-        "network s"
+        "seconds"
     );
     if let Some(params) = s["params"].as_object() {
         for (name, p) in params {
@@ -414,23 +414,39 @@ pub fn format_estimate(estimate: &Value) -> String {
                     .as_f64()
                     .map_or("-".to_string(), |v| format!("{v:.digits$}"))
             };
-            let secs = s["networks"][name]
-                .as_f64()
-                .map_or("-".to_string(), |v| format!("{v:.2}"));
             out += &format!(
-                "{:<13} {:<10} {:>8} {:>9} {:>8} {:>9}",
+                "{:<13} {:<10} {:<9} {:>8} {:>8} {:>8}",
                 name,
                 p["status"].as_str().unwrap_or("?"),
+                p["method"].as_str().unwrap_or("?"),
                 num("mad", 4),
-                num("mse", 5),
                 num("psnr", 2),
-                secs
+                num("seconds", 2)
             );
+            let mut notes = Vec::new();
+            if let Some(share) = p["constrained"].as_f64() {
+                notes.push(format!(
+                    "the photos pinned {:.0}% of the object",
+                    100.0 * share
+                ));
+            }
             if let Some(r) = p["reason"].as_str() {
-                out += &format!("  ({r})");
+                notes.push(r.to_string());
+            }
+            if !notes.is_empty() {
+                out += &format!("  ({})", notes.join("; "));
             }
             out += "\n";
         }
+    }
+    if let Some(stages) = s["stages"].as_object() {
+        let spent: Vec<String> = stages
+            .iter()
+            .filter_map(|(k, v)| v.as_f64().map(|v| (k, v)))
+            .filter(|(_, v)| *v > 0.0)
+            .map(|(k, v)| format!("{k} {v:.2}"))
+            .collect();
+        out += &format!("stages, s: {}\n", spent.join(", "));
     }
     out += &format!(
         "estimate total {:.2} s\n",

@@ -11,6 +11,15 @@
 //! board going silent (serial timeouts), a flash that acknowledges but does
 //! not fire, a full disk ([`SimDisk`]).
 //!
+//! Light adds linearly, so the camera renders each emitter's light alone
+//! at full power and sums what is on at the moment of capture. One path
+//! tracing pass renders the environment and several emitters at once
+//! (`Renderer::render_position`), as `matscan simulate` renders a
+//! position's captures: the camera keeps a position's per-emitter images
+//! ([`PhotoCache`]) and renders, on a miss, every rig light and every
+//! projector pattern it has been asked for before in one pass. A scan of
+//! three positions then costs six passes instead of one per photo.
+//!
 //! Boundaries: renders through `matscan_sim::render` only; writes nothing
 //! but what [`SimDisk`] is asked to.
 
@@ -175,6 +184,8 @@ impl SimBench {
                 config: config.clone(),
                 settings,
                 frames: 0,
+                cache: None,
+                patterns_seen: Vec::new(),
             },
             projector: SimProjector {
                 scene: scene.clone(),
@@ -212,33 +223,158 @@ pub struct SimCamera {
     config: SimConfig,
     settings: CameraSettings,
     frames: u64,
+    cache: Option<PhotoCache>,
+    /// Every projector pattern a capture has shown, so that the next
+    /// position renders them in its first pass.
+    patterns_seen: Vec<ProjectorPattern>,
+}
+
+/// One position's light, per emitter at full power, exposure-scaled as the
+/// renderer returns it.
+struct PhotoCache {
+    position: usize,
+    ambient: RgbRaster,
+    lights: Vec<(LightId, RgbRaster)>,
+    patterns: Vec<(ProjectorPattern, RgbRaster)>,
+}
+
+impl PhotoCache {
+    fn light(&self, id: LightId) -> Option<&RgbRaster> {
+        self.lights.iter().find(|(l, _)| *l == id).map(|(_, r)| r)
+    }
+
+    fn pattern(&self, p: ProjectorPattern) -> Option<&RgbRaster> {
+        self.patterns.iter().find(|(q, _)| *q == p).map(|(_, r)| r)
+    }
+}
+
+/// An emitter the camera renders alone.
+#[derive(Clone, Copy, PartialEq)]
+enum Emitter {
+    Light(LightId),
+    Projector(ProjectorPattern),
 }
 
 impl SimCamera {
-    /// What the lights and projector emit now: `(light name, level)` per rig
-    /// term that is on.
-    fn lit_terms(&self, position: usize) -> Vec<(CaptureSpec, f32)> {
-        let rig = &self.scene.rig.positions[position];
+    /// What the lights and projector emit now: each emitter that is on,
+    /// with the fraction of full power it emits (a projector pattern
+    /// carries its own levels, so it counts once).
+    fn lit_terms(&self, position: usize) -> Vec<(Emitter, f32)> {
         let (board, pattern) = (lock(&self.board), lock(&self.stage).pattern);
-        let mut terms = Vec::new();
-        for light in LightId::ALL {
-            let level = board.output(light) as f32 / 255.0;
-            let present = match light {
-                LightId::Backlight => rig.backlight.name == light.name(),
-                _ => rig.flashes.iter().any(|f| f.name == light.name()),
-            };
-            if level > 0.0 && present {
-                terms.push((CaptureSpec::new(light.name(), &[light.name()], None), level));
-            }
-        }
+        let mut terms: Vec<(Emitter, f32)> = self
+            .lights_of(position)
+            .into_iter()
+            .map(|light| (Emitter::Light(light), board.output(light) as f32 / 255.0))
+            .filter(|(_, level)| *level > 0.0)
+            .collect();
         if pattern != ProjectorPattern::Black {
-            let name = rig.projector.name.as_str();
-            terms.push((
-                CaptureSpec::new(name, &[name], Some(pattern.to_pattern())),
-                1.0,
-            ));
+            terms.push((Emitter::Projector(pattern), 1.0));
         }
         terms
+    }
+
+    /// The controller's lights the rig has at `position`.
+    fn lights_of(&self, position: usize) -> Vec<LightId> {
+        let rig = &self.scene.rig.positions[position];
+        LightId::ALL
+            .into_iter()
+            .filter(|light| match light {
+                LightId::Backlight => rig.backlight.name == light.name(),
+                _ => rig.flashes.iter().any(|f| f.name == light.name()),
+            })
+            .collect()
+    }
+
+    /// The per-emitter images of `position`, rendering what `terms` need
+    /// and the cache lacks: a new position gets the environment, every
+    /// light and every pattern seen so far in one pass; a new pattern at
+    /// the same position is rendered alone, and the position's environment
+    /// image is kept.
+    fn emitter_images(
+        &mut self,
+        position: usize,
+        terms: &[(Emitter, f32)],
+    ) -> Result<&PhotoCache, DriverError> {
+        let stale = self.cache.as_ref().is_none_or(|c| c.position != position);
+        let missing = |c: &PhotoCache, e: &Emitter| match e {
+            Emitter::Light(l) => c.light(*l).is_none(),
+            Emitter::Projector(p) => c.pattern(*p).is_none(),
+        };
+        let mut wanted: Vec<Emitter> = if stale {
+            let mut all: Vec<Emitter> = self
+                .lights_of(position)
+                .into_iter()
+                .map(Emitter::Light)
+                .collect();
+            all.extend(self.patterns_seen.iter().map(|p| Emitter::Projector(*p)));
+            all
+        } else {
+            Vec::new()
+        };
+        for (e, _) in terms {
+            let cached = !stale && self.cache.as_ref().is_some_and(|c| !missing(c, e));
+            if !cached && !wanted.contains(e) {
+                wanted.push(*e);
+            }
+        }
+        if stale || !wanted.is_empty() {
+            let rig = &self.scene.rig.positions[position];
+            let specs: Vec<CaptureSpec> = wanted
+                .iter()
+                .map(|e| match e {
+                    Emitter::Light(l) => CaptureSpec::new(l.name(), &[l.name()], None),
+                    Emitter::Projector(p) => CaptureSpec::new(
+                        &rig.projector.name,
+                        &[rig.projector.name.as_str()],
+                        Some(p.to_pattern()),
+                    ),
+                })
+                .collect();
+            let render_err = |e: matscan_sim::render::SimError| DriverError::Render {
+                device: CAMERA_ID.to_string(),
+                reason: e.to_string(),
+            };
+            let renderer = Renderer::new(&self.scene).map_err(render_err)?;
+            let opts = RenderOptions {
+                samples: self.config.samples.max(1),
+                seed: self.config.seed,
+                ..RenderOptions::default()
+            };
+            let images = renderer
+                .render_position(position, &specs, &opts)
+                .map_err(render_err)?;
+            let cache = match self.cache.take() {
+                Some(c) if !stale => c,
+                _ => PhotoCache {
+                    position,
+                    ambient: images.ambient,
+                    lights: Vec::new(),
+                    patterns: Vec::new(),
+                },
+            };
+            let cache = wanted
+                .iter()
+                .zip(images.light_only)
+                .fold(cache, |mut c, (e, image)| {
+                    match e {
+                        Emitter::Light(l) => c.lights.push((*l, image)),
+                        Emitter::Projector(p) => c.patterns.push((*p, image)),
+                    }
+                    c
+                });
+            self.cache = Some(cache);
+        }
+        for (e, _) in terms {
+            if let Emitter::Projector(p) = e {
+                if !self.patterns_seen.contains(p) {
+                    self.patterns_seen.push(*p);
+                }
+            }
+        }
+        self.cache.as_ref().ok_or_else(|| DriverError::Render {
+            device: CAMERA_ID.to_string(),
+            reason: "no image was rendered".to_string(),
+        })
     }
 }
 
@@ -278,20 +414,6 @@ impl Camera for SimCamera {
         }
         let position = lock(&self.stage).position;
         let terms = self.lit_terms(position);
-        let render_err = |e: matscan_sim::render::SimError| DriverError::Render {
-            device: CAMERA_ID.to_string(),
-            reason: e.to_string(),
-        };
-        let renderer = Renderer::new(&self.scene).map_err(render_err)?;
-        let specs: Vec<CaptureSpec> = terms.iter().map(|(s, _)| s.clone()).collect();
-        let opts = RenderOptions {
-            samples: self.config.samples.max(1),
-            seed: self.config.seed,
-            ..RenderOptions::default()
-        };
-        let images = renderer
-            .render_position(position, &specs, &opts)
-            .map_err(render_err)?;
         let rig_exposure = self.scene.rig.positions[position].exposure_s;
         let rig_exposure = if rig_exposure.is_finite() && rig_exposure > 0.0 {
             rig_exposure
@@ -299,8 +421,16 @@ impl Camera for SimCamera {
             1.0
         };
         let scale = self.settings.exposure_s() * self.settings.gain() / rig_exposure;
-        let mut rgb: RgbRaster = images.ambient;
-        for ((_, level), light) in terms.iter().zip(&images.light_only) {
+        let images = self.emitter_images(position, &terms)?;
+        let mut rgb: RgbRaster = images.ambient.clone();
+        for (emitter, level) in &terms {
+            let light = match emitter {
+                Emitter::Light(l) => images.light(*l),
+                Emitter::Projector(p) => images.pattern(*p),
+            };
+            let Some(light) = light else {
+                continue;
+            };
             for (o, v) in rgb.data.iter_mut().zip(&light.data) {
                 for c in 0..3 {
                     o[c] += level * v[c];

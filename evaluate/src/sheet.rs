@@ -3,15 +3,28 @@
 //! mask, the truth maps and estimates where present. Renderer bugs are
 //! easiest seen here.
 //!
+//! Where the scan has an estimate, the sheet opens with it, at the
+//! estimate's reference position: the photo under the first flash beside
+//! the estimated material re-rendered under a light the rig never had
+//! (`key-left` of [`crate::rerender`]) and, for a simulated scan, the true
+//! material under the same light; then per parameter the truth, the
+//! estimate and the error map `|estimate - truth|` (0 black, 0.5 and above
+//! white, through red and yellow), its MAD in the label.
+//!
 //! Photos are shown as radiance (divided by exposure) with one exposure per
 //! position, so the relative brightness of captures stays comparable: the
 //! 99.5th percentile of luminance over all of a position's photos maps to
-//! white. Maps in [0, 1] are shown as they are, in sRGB.
+//! white. Maps in [0, 1] are shown as they are, in sRGB; re-renders
+//! through the Reinhard curve of [`crate::image_metrics`].
 
+use crate::image_metrics::{compare, reinhard};
 use crate::plot::font;
+use crate::render::{estimated_textures, reference_position, true_textures};
+use crate::rerender::{material_from_textures, LightName, Lighting, RenderSettings, ScanObject};
 use anyhow::{Context, Result};
 use matscan_calib::{calibrate_bundle, CalibOptions, PixelMaps};
 use matscan_scan::bundle::TruthImage;
+use matscan_scan::estimate_maps::{read_position_maps, MapValues, ESTIMATE_DIR};
 use matscan_scan::raster::{MaskRaster, Raster, RgbRaster, ScalarRaster};
 use matscan_scan::{Bundle, Param, TruthMap};
 use std::path::Path;
@@ -28,7 +41,12 @@ struct Tile {
 /// Label text size, pixels.
 const TEXT_PX: f32 = 11.0;
 const GAP: u32 = 4;
-const MAX_TILE: u32 = 192;
+const MAX_TILE: u32 = 256;
+/// The error that maps to white on an error map.
+const ERROR_WHITE: f32 = 0.5;
+/// Samples per pixel of the sheet's re-renders, and their texture side.
+const RERENDER_SAMPLES: u32 = 16;
+const RERENDER_TEXELS: u32 = 256;
 
 /// Draws the contact sheet of the bundle at `scan` into `out` (PNG).
 pub fn draw_contact_sheet(scan: &Path, out: &Path) -> Result<()> {
@@ -44,6 +62,16 @@ pub fn draw_contact_sheet(scan: &Path, out: &Path) -> Result<()> {
         }
     };
     let mut rows: Vec<(String, Vec<Tile>)> = Vec::new();
+    let estimate_dir = scan.join(ESTIMATE_DIR);
+    let estimated_at = if estimate_dir.is_dir() {
+        let reference = reference_position(&bundle, &estimate_dir)?;
+        let estimate = estimate_rows(&bundle, scan, &estimate_dir, &reference)?;
+        let has_rows = !estimate.is_empty();
+        rows.extend(estimate);
+        has_rows.then_some(reference)
+    } else {
+        None
+    };
     for position in &bundle.manifest.positions {
         let mut photos = Vec::new();
         for capture in &position.captures {
@@ -94,6 +122,9 @@ pub fn draw_contact_sheet(scan: &Path, out: &Path) -> Result<()> {
             rows.push((format!("{} calib", position.name), calib_tiles(&pc.maps)));
         }
 
+        if estimated_at.as_deref() == Some(position.name.as_str()) {
+            continue;
+        }
         let mut estimates = Vec::new();
         for param in Param::ALL {
             let path = scan
@@ -112,6 +143,176 @@ pub fn draw_contact_sheet(scan: &Path, out: &Path) -> Result<()> {
     }
     let title = format!("{}  {}", bundle.manifest.name, scan.display());
     compose(&title, &rows, out)
+}
+
+/// The estimate at `reference` against the truth (see the module doc);
+/// empty when that position has no maps.
+fn estimate_rows(
+    bundle: &Bundle,
+    scan: &Path,
+    estimate_dir: &Path,
+    reference: &str,
+) -> Result<Vec<(String, Vec<Tile>)>> {
+    let Some(maps) = read_position_maps(estimate_dir, reference)
+        .with_context(|| format!("reading the estimate of position {reference}"))?
+    else {
+        return Ok(Vec::new());
+    };
+    let mut rows = vec![(
+        format!("{reference} re-render"),
+        rerender_tiles(bundle, scan, estimate_dir, reference)?,
+    )];
+    let mask = match bundle.read_truth(reference, &TruthMap::Mask)? {
+        Some(TruthImage::Mask(m)) => Some(m),
+        _ => None,
+    };
+    for param in Param::ALL {
+        let Some(map) = maps.get(param) else {
+            continue;
+        };
+        let estimate = match map.values() {
+            MapValues::Rgb(r) => r.clone(),
+            MapValues::Scalar(r) => r.map(|&v| [v; 3]),
+        };
+        let mut tiles = Vec::new();
+        let truth = match bundle.read_truth(reference, &TruthMap::Param(param))? {
+            Some(TruthImage::Rgb(r)) => Some(r),
+            Some(TruthImage::Scalar(r)) => Some(r.map(|&v| [v; 3])),
+            Some(TruthImage::Mask(r)) => Some(r.map(|&m| [if m { 1.0 } else { 0.0 }; 3])),
+            None => None,
+        };
+        if let Some(truth) = &truth {
+            tiles.push(tile_rgb(&format!("true {param}"), truth));
+        }
+        tiles.push(tile_rgb(&format!("estimated {param}"), &estimate));
+        let channels = if param == Param::Basecolor { 3 } else { 1 };
+        if let (Some(truth), Some(mask)) = (&truth, &mask) {
+            if let Some((error, mad)) = error_map(&estimate, truth, mask, channels) {
+                tiles.push(tile_rgb(&format!("|error| MAD {mad:.3}"), &error));
+            }
+        }
+        rows.push((format!("{reference} {param}"), tiles));
+    }
+    Ok(rows)
+}
+
+/// The photo under the first flash at `reference`, the estimated material
+/// re-rendered under a novel light from the same camera and, with truth
+/// maps, the true material under that light (PSNR of the estimate's render
+/// against the truth's in its label). A scan whose estimate cannot be
+/// re-rendered (a mesh without UVs) gets the photo alone, the reason on
+/// stderr.
+fn rerender_tiles(
+    bundle: &Bundle,
+    scan: &Path,
+    estimate_dir: &Path,
+    reference: &str,
+) -> Result<Vec<Tile>> {
+    let mut tiles = Vec::new();
+    let position = bundle.position(reference)?;
+    let width = bundle.manifest.camera.width;
+    let lit: Vec<_> = position.lit_captures().collect();
+    if let Some((capture, _)) = lit
+        .iter()
+        .find(|(_, light)| light == "flash0")
+        .or_else(|| lit.first())
+    {
+        let photo = bundle.read_photo(reference, &capture.name)?;
+        let scale = 1.0 / capture.exposure_s.max(1e-12) as f32;
+        let photo = photo.map(|p| p.map(|c| c * scale));
+        let white = white_point(std::iter::once(&photo));
+        tiles.push(tile_rgb(
+            &format!("photo {}", capture.name),
+            &photo.map(|p| p.map(|c| c / white)),
+        ));
+    }
+    let lighting = Lighting {
+        light: LightName::KeyLeft,
+        environment: false,
+    };
+    let rendered = (|| -> Result<_> {
+        let object = ScanObject::new(bundle, reference)?;
+        let shots = object.shots(&[lighting], None);
+        let settings = RenderSettings::new(width.clamp(8, 4096), RERENDER_SAMPLES);
+        let (estimated, _) = estimated_textures(scan, estimate_dir, RERENDER_TEXELS)?;
+        let mine = object.render(&material_from_textures(&estimated), &shots, settings)?;
+        let truth = match true_textures(bundle, &estimated, None)? {
+            Some(t) => Some(object.render(&material_from_textures(&t), &shots, settings)?),
+            None => None,
+        };
+        Ok((mine, truth))
+    })();
+    let (mine, truth) = match rendered {
+        Ok((mine, truth)) => (mine, truth),
+        Err(e) => {
+            eprintln!("warning: no re-render on the sheet: {e:#}");
+            return Ok(tiles);
+        }
+    };
+    let (Some(mine), truth) = (mine.first(), truth.as_ref().and_then(|t| t.first())) else {
+        return Ok(tiles);
+    };
+    let shown = |r: &RgbRaster| r.map(|p| p.map(reinhard));
+    let score = truth
+        .and_then(|t| compare(&mine.image, &t.image, &t.mask))
+        .map_or(String::new(), |s| format!(", {:.1} dB", s.psnr));
+    tiles.push(tile_rgb(
+        &format!("estimate under {lighting}{score}"),
+        &shown(&mine.image),
+    ));
+    if let Some(t) = truth {
+        tiles.push(tile_rgb(
+            &format!("truth under {lighting}"),
+            &shown(&t.image),
+        ));
+    }
+    Ok(tiles)
+}
+
+/// `|estimate - truth|` over `mask` (averaged over the first `channels`
+/// channels) as a heat map, and its mean; `None` when sizes differ or the
+/// mask is empty.
+fn error_map(
+    estimate: &RgbRaster,
+    truth: &RgbRaster,
+    mask: &MaskRaster,
+    channels: usize,
+) -> Option<(RgbRaster, f32)> {
+    if !(estimate.same_size(truth) && estimate.same_size(mask)) {
+        return None;
+    }
+    let (mut sum, mut n) = (0.0f64, 0usize);
+    let data = estimate
+        .data
+        .iter()
+        .zip(&truth.data)
+        .zip(&mask.data)
+        .map(|((e, t), &m)| {
+            let d = (0..channels).map(|c| (e[c] - t[c]).abs()).sum::<f32>() / channels as f32;
+            if !m || !d.is_finite() {
+                return [0.08; 3];
+            }
+            sum += f64::from(d);
+            n += 1;
+            heat(d / ERROR_WHITE)
+        })
+        .collect();
+    (n > 0).then(|| {
+        (
+            Raster {
+                width: estimate.width,
+                height: estimate.height,
+                data,
+            },
+            (sum / n as f64) as f32,
+        )
+    })
+}
+
+/// Black through red and yellow to white over [0, 1].
+fn heat(t: f32) -> [f32; 3] {
+    let t = 3.0 * unit(t);
+    [unit(t), unit(t - 1.0), unit(t - 2.0)]
 }
 
 /// Normal and view as colours (`0.5 + 0.5 v`), depth normalized over the

@@ -28,14 +28,21 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Instant;
 
+/// The default scene: `2mat` on a held-out shape, seeded so that both
+/// materials are opaque and one is a metal (a test below holds it to that).
+pub const DEFAULT_SEED: u64 = 63;
+pub const DEFAULT_GEOMETRY: &str = "rock";
+
 #[derive(Debug, Args)]
 pub struct DemoArgs {
     /// Folder for the demo's daemon socket and scans (created; each run
     /// adds a new numbered scan under OUT/scans).
     #[arg(long, default_value = "out/demo")]
     pub out: PathBuf,
-    /// Random seed of the scene and the renderer.
-    #[arg(long, default_value_t = 1)]
+    /// Random seed of the scene and the renderer. The default, with the
+    /// default kind and geometry, is an opaque rock of two materials, one
+    /// of them a metal: what the default method measures best.
+    #[arg(long, default_value_t = DEFAULT_SEED)]
     pub seed: u64,
     /// Scene kind: multimat, multimat-noenv, 2mat, 2mat-transmission, 3mat,
     /// realworld, sweep-subsurface, sweep-basecolor, sweep-roughness.
@@ -43,11 +50,17 @@ pub struct DemoArgs {
     pub kind: String,
     /// Geometry: sphere, torus, superquadric, blob, leaves, vase, box, rock,
     /// figurine or random (one of the first five).
-    #[arg(long, default_value = "random")]
+    #[arg(long, default_value = DEFAULT_GEOMETRY)]
     pub geometry: String,
     /// Photo width and height in pixels.
-    #[arg(long, default_value_t = 128)]
+    #[arg(long, default_value_t = 256)]
     pub size: u32,
+    /// How far the object reaches from the image centre towards its
+    /// nearest edge: every camera aims at the object and the focal length
+    /// is chosen for it, as an operator sets up a rig. 0 keeps the data
+    /// sets' random aim and focal length.
+    #[arg(long, default_value_t = matscan_daemon::service::config::DEFAULT_FRAME)]
+    pub frame: f64,
     /// Number of scan-head positions (the simulated turntable turns
     /// between them).
     #[arg(long, default_value_t = 3)]
@@ -80,6 +93,11 @@ fn config(a: &DemoArgs) -> Result<Config> {
     if !(1..=64).contains(&a.positions) {
         bail!("--positions {}: expected 1 to 64", a.positions);
     }
+    let frame = match a.frame {
+        f if f == 0.0 => None,
+        f if f > 0.0 && f <= 1.0 => Some(f),
+        f => bail!("--frame {f}: expected a share in (0, 1], or 0 for the random framing"),
+    };
     if a.samples == 0 {
         bail!("--samples 0: expected at least one sample per pixel");
     }
@@ -105,6 +123,7 @@ fn config(a: &DemoArgs) -> Result<Config> {
             size: a.size,
             positions: a.positions,
             samples: a.samples,
+            frame,
             turntable: true,
             footswitch: None,
             faults: FaultConfig::default(),
@@ -181,6 +200,12 @@ pub fn run(a: &DemoArgs) -> Result<()> {
         summary["photos"],
         scan.display()
     );
+    if let Some((position, share)) = object_share(&scan) {
+        println!(
+            "object             {:7.0} %  of the frame at position {position}",
+            100.0 * share
+        );
+    }
     println!("calibration check: {}", format_check(&check));
     print!("{}", format_estimate(&estimate));
     let t_sheet = Instant::now();
@@ -196,4 +221,79 @@ pub fn run(a: &DemoArgs) -> Result<()> {
         bail!("the estimate failed (see above)");
     }
     Ok(())
+}
+
+/// The share of the first position's frame the object covers (its mask),
+/// where the bundle has one.
+fn object_share(scan: &std::path::Path) -> Option<(String, f64)> {
+    let bundle = matscan_scan::Bundle::open(scan).ok()?;
+    let position = bundle.manifest.positions.first()?.name.clone();
+    let mask = bundle.read_mask(&position).ok()??;
+    let covered = mask.data.iter().filter(|&&m| m).count();
+    Some((position, covered as f64 / mask.data.len().max(1) as f64))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+    use matscan_daemon::service::config::RigChoice;
+    use matscan_daemon::service::rig::simulated_scene;
+    use matscan_sim::scene::Texture;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        demo: DemoArgs,
+    }
+
+    fn texel<T: Copy>(t: &Texture<T>, i: usize) -> T {
+        match t {
+            Texture::Constant(v) => *v,
+            Texture::Map(r) => r.data[i],
+        }
+    }
+
+    #[test]
+    fn the_default_scene_is_an_opaque_framed_object_of_two_materials_one_a_metal() {
+        let tmp = tempfile::tempdir().unwrap();
+        let out = tmp.path().join("demo");
+        let cli = Cli::parse_from(["demo", "--out", out.to_str().unwrap()]);
+        let config = config(&cli.demo).unwrap();
+        let RigChoice::Simulated(rig) = &config.rig else {
+            panic!("the demo runs the simulated rig");
+        };
+        assert_eq!((rig.size, rig.positions), (256, 3));
+        assert!(rig.frame.is_some(), "the demo frames its object");
+        let scene = simulated_scene(rig).unwrap();
+        let m = &scene.material;
+        let texels = match &m.metallic {
+            Texture::Map(r) => r.data.len(),
+            Texture::Constant(_) => 1,
+        };
+        // (metallic, transmission, subsurface, roughness) per texel.
+        let mut materials: Vec<[u32; 4]> = (0..texels)
+            .map(|i| {
+                [
+                    texel(&m.metallic, i),
+                    texel(&m.transmission, i),
+                    texel(&m.subsurface, i),
+                    texel(&m.roughness, i),
+                ]
+                .map(f32::to_bits)
+            })
+            .collect();
+        materials.sort_unstable();
+        materials.dedup();
+        assert_eq!(materials.len(), 2, "two materials: {materials:?}");
+        let value = |bits: u32| f32::from_bits(bits);
+        let metals = materials.iter().filter(|t| value(t[0]) == 1.0).count();
+        assert_eq!(metals, 1, "one metal: {materials:?}");
+        assert!(
+            materials
+                .iter()
+                .all(|t| value(t[1]) == 0.0 && value(t[2]) == 0.0),
+            "opaque: {materials:?}"
+        );
+    }
 }

@@ -22,9 +22,7 @@ use matscan_estimate::net::weights::EMBEDDED;
 use matscan_estimate::pipeline::method::Method;
 use matscan_estimate::pipeline::plan::{parse_given, parse_param};
 use matscan_estimate::refine::RefineOptions;
-use matscan_estimate::{
-    estimate, Backend, EstimateOptions, ModelSource, References, Status, ViewFilter,
-};
+use matscan_estimate::{estimate, Backend, EstimateOptions, ModelSource, References, ViewFilter};
 use matscan_scan::Param;
 use std::path::PathBuf;
 
@@ -169,31 +167,15 @@ pub fn run(args: &EstimateArgs) -> Result<()> {
         result.views.len(),
         result.positions.join(", ")
     );
-    for kind in matscan_estimate::PIPELINE_ORDER {
-        let Some(entry) = result.param(kind) else {
-            continue;
-        };
-        let line = match entry.status {
-            Status::Estimated => match (entry.method.as_deref(), entry.constrained) {
-                (Some(method), Some(share)) if method != "networks" => format!(
-                    "estimated ({method}; the photos pinned {:.0}% of the object)",
-                    100.0 * share
-                ),
-                _ => format!(
-                    "estimated ({})",
-                    entry.model.as_deref().unwrap_or("unknown model")
-                ),
-            },
-            Status::Given => format!("given ({})", entry.source.as_deref().unwrap_or("")),
-            Status::Skipped => format!("skipped: {}", entry.reason.as_deref().unwrap_or("")),
-        };
-        let metrics = result
-            .metrics
-            .get(kind.name())
-            .map(|m| format!("; MAD {:.4} MSE {:.5} PSNR {:.2} dB", m.mad, m.mse, m.psnr))
-            .unwrap_or_default();
-        println!("{kind}: {line}{metrics}");
-    }
+    // The same table `capture-now --wait` and the demo print.
+    let summary = matscan_daemon::service::worker::summary(&report.out, result);
+    print!(
+        "{}",
+        matscan_daemon::client::format_estimate(&serde_json::json!({
+            "outcome": "estimated",
+            "summary": summary,
+        }))
+    );
     if let Some(r) = &result.refine {
         let stops: Vec<String> = r.stops.iter().map(|(k, v)| format!("{k} {v}")).collect();
         println!(

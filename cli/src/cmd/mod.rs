@@ -33,9 +33,10 @@ pub struct Cli {
 #[derive(Debug, Subcommand)]
 pub enum Command {
     /// Run the main job on the simulated rig: start the daemon in this
-    /// process, capture one scan, estimate its BSDF maps with the embedded
-    /// networks, print per-parameter error and timings, draw a contact
-    /// sheet.
+    /// process, capture one scan of an object framed as an operator would,
+    /// estimate its BSDF maps with the default method (the physical fit
+    /// and the embedded networks), print per parameter who answered, its
+    /// error and its time, and draw a contact sheet.
     Demo(demo::DemoArgs),
     /// Estimate a scan's BSDF parameter maps into SCAN/estimate (float EXR
     /// maps, 8-bit previews, result.toml with statuses, timings and, where
@@ -79,8 +80,10 @@ pub enum Command {
     /// position), or `calib check SCAN` to check its calibration.
     #[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
     Calib(calib::CalibArgs),
-    /// Draw a contact sheet of a scan bundle: captures, mask, truth and
-    /// estimates where present.
+    /// Draw a contact sheet of a scan bundle: the estimate beside the
+    /// truth with error maps and a re-render under a novel light (where
+    /// there is an estimate), then captures, mask, truth and calibration
+    /// maps per position.
     Sheet(sheet::SheetArgs),
 }
 

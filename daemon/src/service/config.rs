@@ -221,7 +221,7 @@ impl RigChoice {
                 h.mesh.display()
             ),
             RigChoice::Simulated(s) => format!(
-                "simulated ({} scene, {} on {}, {} positions, {}x{} px, seed {}{})",
+                "simulated ({} scene, {} on {}, {} positions, {}x{} px, {} spp, {}, seed {}{})",
                 s.kind,
                 s.geometry
                     .map_or("random geometry".to_string(), |g| g.to_string()),
@@ -233,6 +233,12 @@ impl RigChoice {
                 s.positions,
                 s.size,
                 s.size,
+                s.samples,
+                s.frame
+                    .map_or("the thesis's random framing".to_string(), |f| format!(
+                        "object framed to {:.0}% of the half frame",
+                        100.0 * f
+                    )),
                 s.seed,
                 s.footswitch.as_ref().map_or_else(String::new, |p| format!(
                     ", footswitch pipe:{}",
@@ -242,6 +248,10 @@ impl RigChoice {
         }
     }
 }
+
+/// How far from the image centre towards its edge the simulated rig's
+/// object reaches by default (see [`SimulatedRigConfig::frame`]).
+pub const DEFAULT_FRAME: f64 = 0.9;
 
 /// The simulated rig: a generated scene rendered on demand.
 #[derive(Debug, Clone, PartialEq)]
@@ -254,6 +264,11 @@ pub struct SimulatedRigConfig {
     pub size: u32,
     pub positions: usize,
     pub samples: u32,
+    /// The share of the frame the object fills: every camera aims at the
+    /// object and the focal length is chosen for it, as an operator sets
+    /// up a real rig (`matscan_sim::scene::frame_object`). `None`: the
+    /// thesis's random aim and focal length, as the data sets use.
+    pub frame: Option<f64>,
     /// With a turntable the sequencer turns the object; without one it
     /// waits for the operator's footswitch press between positions.
     pub turntable: bool,
@@ -386,6 +401,7 @@ struct RawSimulated {
     size: Option<u32>,
     positions: Option<usize>,
     samples: Option<u32>,
+    frame: Option<f64>,
     turntable: Option<bool>,
     footswitch: Option<PathBuf>,
     #[serde(default)]
@@ -789,6 +805,18 @@ fn simulated(
             "expected at least 1 path per pixel".into(),
         ));
     }
+    // 0 keeps the thesis's random framing; absent, the object fills most
+    // of the frame.
+    let frame = match raw.frame.unwrap_or(DEFAULT_FRAME) {
+        f if f == 0.0 => None,
+        f if f > 0.0 && f <= 1.0 => Some(f),
+        f => {
+            return Err(invalid(
+                "simulated.frame",
+                format!("{f}: expected the object's share of the frame in (0, 1], or 0 for the thesis's random framing"),
+            ))
+        }
+    };
     let mut dead_lights = Vec::new();
     for name in &raw.faults.dead_lights {
         let light = matscan_drivers::LightId::from_name(name).ok_or_else(|| {
@@ -806,6 +834,7 @@ fn simulated(
         size,
         positions,
         samples,
+        frame,
         turntable: raw.turntable.unwrap_or(true),
         footswitch: match raw.footswitch {
             Some(p) if p.as_os_str().is_empty() => {
@@ -861,9 +890,14 @@ mod tests {
             panic!("not simulated: {:?}", c.rig);
         };
         assert_eq!(
-            (s.size, s.positions, s.samples, s.turntable),
-            (64, 2, 4, true)
+            (s.size, s.positions, s.samples, s.turntable, s.frame),
+            (64, 2, 4, true, Some(DEFAULT_FRAME))
         );
+        let thesis = parse("rig = \"simulated\"\n[simulated]\nframe = 0").unwrap();
+        let RigChoice::Simulated(s) = &thesis.rig else {
+            panic!("not simulated: {:?}", thesis.rig);
+        };
+        assert_eq!(s.frame, None, "frame = 0 keeps the random framing");
     }
 
     #[test]
@@ -905,6 +939,10 @@ mod tests {
             (
                 "rig = \"simulated\"\n[simulated]\nsize = 2",
                 "`simulated.size`: 2",
+            ),
+            (
+                "rig = \"simulated\"\n[simulated]\nframe = 1.5",
+                "`simulated.frame`: 1.5: expected the object's share",
             ),
             (
                 "rig = \"simulated\"\n[simulated.faults]\ndead_lights = [\"flash7\"]",

@@ -54,6 +54,9 @@ pub enum HardwareError {
     },
     #[error(transparent)]
     Driver(#[from] DriverError),
+    /// The simulated rig's scene could not be framed.
+    #[error("simulated.frame: {0}")]
+    Framing(#[from] matscan_sim::scene::FramingError),
 }
 
 /// The rig's geometry: the calibration file's cameras and lights with the

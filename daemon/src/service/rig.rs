@@ -15,19 +15,24 @@ use matscan_drivers::sim_rig::{SimConfig, SimFaults, SimulatedRig};
 use matscan_drivers::DriverError;
 use matscan_scan::bundle::BundleWriter;
 use matscan_sim::render::bundle_writer::checker_periods;
-use matscan_sim::scene::{generate, rig_to_manifest_lights, GeometrySource, Scene, SceneOptions};
+use matscan_sim::scene::{
+    frame_object, generate, rig_to_manifest_lights, GeometrySource, Scene, SceneOptions,
+};
 use std::num::NonZeroU32;
 
 /// Opens the rig `choice` names.
 pub fn open(choice: &RigChoice) -> Result<RigDevices, HardwareError> {
     match choice {
-        RigChoice::Simulated(c) => Ok(open_simulated(c)?),
+        RigChoice::Simulated(c) => open_simulated(c),
         RigChoice::Hardware(c) => super::hardware::open(c),
     }
 }
 
-fn open_simulated(c: &SimulatedRigConfig) -> Result<RigDevices, DriverError> {
-    let scene = generate(&SceneOptions {
+/// The scene the simulated rig of `c` photographs: generated from its
+/// seed, kind and geometry, its cameras framed on the object where `c`
+/// asks for it.
+pub fn simulated_scene(c: &SimulatedRigConfig) -> Result<Scene, HardwareError> {
+    let mut scene = generate(&SceneOptions {
         seed: c.seed,
         kind: c.kind,
         geometry: c
@@ -38,6 +43,14 @@ fn open_simulated(c: &SimulatedRigConfig) -> Result<RigDevices, DriverError> {
         positions: c.positions,
         map_size: 64,
     });
+    if let Some(fill) = c.frame {
+        frame_object(&mut scene, fill)?;
+    }
+    Ok(scene)
+}
+
+fn open_simulated(c: &SimulatedRigConfig) -> Result<RigDevices, HardwareError> {
+    let scene = simulated_scene(c)?;
     let geometry = geometry_of(&scene, c.size);
     let truth = SceneTruth(scene.clone());
     let config = SimConfig {

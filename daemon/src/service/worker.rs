@@ -268,9 +268,15 @@ pub fn summary(out: &Path, result: &matscan_estimate::ResultFile) -> Value {
         .iter()
         .filter_map(|k| result.param(*k).map(|p| (*k, p)))
         .map(|(k, p)| {
-            let mut v = json!({"status": p.status});
+            let mut v = json!({"status": p.status, "method": p.answered_by()});
             if let Some(r) = &p.reason {
                 v["reason"] = json!(r);
+            }
+            if let Some(share) = p.constrained {
+                v["constrained"] = json!(share);
+            }
+            if let Some(seconds) = p.seconds {
+                v["seconds"] = json!(seconds);
             }
             if let Some(m) = result.metrics.get(k.name()) {
                 v["mad"] = json!(m.mad);
@@ -286,6 +292,16 @@ pub fn summary(out: &Path, result: &matscan_estimate::ResultFile) -> Value {
         "params": params,
         "seconds": result.timings.total_s,
         "networks": result.timings.networks,
+        "stages": {
+            "load": result.timings.load_s,
+            "calibration": result.timings.calibration_s,
+            "inputs": result.timings.inputs_s,
+            "weights": result.timings.weights_s,
+            "networks": result.timings.networks.values().sum::<f64>(),
+            "fit": result.timings.fit_s,
+            "refine": result.timings.refine_s,
+            "metrics": result.timings.metrics_s,
+        },
     })
 }
 

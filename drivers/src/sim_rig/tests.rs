@@ -86,6 +86,52 @@ fn half_level_adds_about_half_the_flash() {
 }
 
 #[test]
+fn photos_sum_each_emitters_light_and_a_position_renders_its_emitters_once() {
+    let config = SimConfig {
+        saturate: false,
+        ..config(SimFaults::default())
+    };
+    let mut rig = SimulatedRig::new(scene(), config).unwrap();
+    let ambient = rig.camera.capture().unwrap().rgb;
+    rig.lights.on(LightId::Flash0, Level::FULL).unwrap();
+    let flash0 = rig.camera.capture().unwrap().rgb;
+    rig.lights.on(LightId::Flash1, Level::FULL).unwrap();
+    let both = rig.camera.capture().unwrap().rgb;
+    rig.lights.off(LightId::Flash0).unwrap();
+    let flash1 = rig.camera.capture().unwrap().rgb;
+    // Light adds: both flashes are each flash's light over one ambient.
+    let mut largest = 0.0f32;
+    for i in 0..ambient.data.len() {
+        for c in 0..3 {
+            let sum = flash0.data[i][c] + flash1.data[i][c] - ambient.data[i][c];
+            largest = largest.max((both.data[i][c] - sum).abs());
+        }
+    }
+    assert!(largest < 1e-5, "{largest}");
+    // A pattern first shown at this position adds its light to the same
+    // ambient; the next position renders it in its own first pass.
+    rig.lights.off(LightId::Flash1).unwrap();
+    rig.projector
+        .show(ProjectorPattern::Uniform(Level::FULL))
+        .unwrap();
+    let uniform = rig.camera.capture().unwrap().rgb;
+    assert!(uniform
+        .data
+        .iter()
+        .zip(&ambient.data)
+        .all(|(u, a)| (0..3).all(|c| u[c] >= a[c])));
+    assert_eq!(rig.camera.patterns_seen.len(), 1);
+    rig.positioner.advance().unwrap();
+    let cache = |rig: &SimulatedRig| {
+        let c = rig.camera.cache.as_ref().unwrap();
+        (c.position, c.lights.len(), c.patterns.len())
+    };
+    rig.projector.show(ProjectorPattern::Black).unwrap();
+    rig.camera.capture().unwrap();
+    assert_eq!(cache(&rig), (1, 3, 1), "every light and the seen pattern");
+}
+
+#[test]
 fn projector_pattern_and_position_change_the_photo() {
     let mut rig = SimulatedRig::new(scene(), config(SimFaults::default())).unwrap();
     let dark = rig.camera.capture().unwrap();

@@ -62,13 +62,33 @@ pub struct ParamResult {
     /// or `hybrid` (the fit where the photos pinned the value, the
     /// networks elsewhere); under `fit-metallic`, `hybrid` for metallic
     /// and `networks` for basecolor and roughness; under `fit-specular`,
-    /// `hybrid` for metallic and roughness and `networks` for basecolor.
+    /// `hybrid` for metallic and roughness and `networks` for basecolor; a
+    /// parameter whose `constrained` share is 0 is the networks' answer
+    /// everywhere and says `networks`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub method: Option<String>,
     /// Share of the reference's object pixels whose value the photos
     /// pinned (the fit's methods only).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub constrained: Option<f32>,
+    /// Seconds of the stages that answered an estimated parameter: its
+    /// network's, plus the physical fit's where the fit answered. The fit
+    /// serves several parameters at once, so these do not add up to
+    /// `timings.total_s`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub seconds: Option<f64>,
+}
+
+impl ParamResult {
+    /// Who answered, in one word: the method of an estimated parameter
+    /// (`networks`, `fit`, `hybrid`), or `given` / `skipped`.
+    pub fn answered_by(&self) -> &str {
+        match self.status {
+            Status::Estimated => self.method.as_deref().unwrap_or("networks"),
+            Status::Given => "given",
+            Status::Skipped => "skipped",
+        }
+    }
 }
 
 /// Seconds per stage.
@@ -270,6 +290,7 @@ mod tests {
                 views: None,
                 method: None,
                 constrained: None,
+                seconds: None,
             },
         );
         ResultFile {

@@ -327,6 +327,12 @@ pub fn estimate_prepared(
         let entry = match plan.decision(kind) {
             Decision::Estimate => {
                 let (method, constrained) = fits.answered(kind, options.method);
+                let network_s = runs.get(&kind).map(|(_, s)| *s);
+                let fit_s = (method != Method::Networks).then_some(fits.seconds);
+                let seconds = match (network_s, fit_s) {
+                    (None, None) => None,
+                    (n, f) => Some(n.unwrap_or(0.0) + f.unwrap_or(0.0)),
+                };
                 ParamResult {
                     status: Status::Estimated,
                     reason: None,
@@ -336,6 +342,7 @@ pub fn estimate_prepared(
                     views: runs.get(&kind).map(|(v, _)| *v),
                     method: Some(method.to_string()),
                     constrained,
+                    seconds,
                 }
             }
             Decision::Given(given) => ParamResult {
@@ -347,6 +354,7 @@ pub fn estimate_prepared(
                 views: None,
                 method: None,
                 constrained: None,
+                seconds: None,
             },
             Decision::Skip { reason } => ParamResult {
                 status: Status::Skipped,
@@ -357,6 +365,7 @@ pub fn estimate_prepared(
                 views: None,
                 method: None,
                 constrained: None,
+                seconds: None,
             },
         };
         params.insert(kind.name().to_string(), entry);
@@ -567,8 +576,13 @@ impl FitTally {
             Param::Metallic => Some(c.metallic),
             _ => None,
         });
+        // A parameter the photos pinned nowhere was the networks' answer
+        // throughout, whatever the method; the share still says the fit
+        // looked.
         match (share, method.answering(kind)) {
-            (Some(s), answering) if answering != Method::Networks => (answering, Some(s)),
+            (Some(s), answering) if answering != Method::Networks => {
+                (if s > 0.0 { answering } else { Method::Networks }, Some(s))
+            }
             _ => (Method::Networks, None),
         }
     }

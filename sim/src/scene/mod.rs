@@ -10,9 +10,11 @@
 //! - [`realworld`]: wood, stone, fabric and painted metal for the
 //!   `realworld` kind;
 //! - [`rig`]: the scan head, its randomization and its manifest lights;
-//! - [`generate`](mod@generate): a whole scene from a seed.
+//! - [`generate`](mod@generate): a whole scene from a seed;
+//! - [`framing`]: cameras aimed at the object, which fills the frame.
 
 pub mod color;
+pub mod framing;
 pub mod generate;
 pub mod geometry;
 pub mod kinds;
@@ -22,6 +24,7 @@ pub mod noise;
 pub mod realworld;
 pub mod rig;
 
+pub use framing::{frame_object, FramingError};
 pub use generate::{generate, GeometrySource, SceneOptions};
 pub use geometry::{GeometryKind, UserMesh, UvProjection};
 pub use kinds::SceneKind;

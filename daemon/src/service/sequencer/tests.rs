@@ -16,6 +16,7 @@ fn sim(positions: usize, turntable: bool, faults: FaultConfig) -> RigChoice {
         size: 24,
         positions,
         samples: 1,
+        frame: None,
         turntable,
         footswitch: None,
         faults,
