@@ -443,7 +443,8 @@ pub fn format_estimate(estimate: &Value) -> String {
         let spent: Vec<String> = stages
             .iter()
             .filter_map(|(k, v)| v.as_f64().map(|v| (k, v)))
-            .filter(|(_, v)| *v > 0.0)
+            // Stages that took no measurable time say nothing.
+            .filter(|(_, v)| *v >= 0.005)
             .map(|(k, v)| format!("{k} {v:.2}"))
             .collect();
         out += &format!("stages, s: {}\n", spent.join(", "));

@@ -64,7 +64,8 @@ pub struct ParamResult {
     /// and `networks` for basecolor and roughness; under `fit-specular`,
     /// `hybrid` for metallic and roughness and `networks` for basecolor; a
     /// parameter whose `constrained` share is 0 is the networks' answer
-    /// everywhere and says `networks`.
+    /// everywhere and says `networks` (but under `fit`, which never falls
+    /// back).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub method: Option<String>,
     /// Share of the reference's object pixels whose value the photos

@@ -576,12 +576,17 @@ impl FitTally {
             Param::Metallic => Some(c.metallic),
             _ => None,
         });
-        // A parameter the photos pinned nowhere was the networks' answer
-        // throughout, whatever the method; the share still says the fit
-        // looked.
+        // Under a method that falls back to the networks where the photos
+        // pin nothing, a parameter pinned nowhere was the networks' answer
+        // throughout; the share still says the fit looked. Under `fit` the
+        // fit answers everywhere.
         match (share, method.answering(kind)) {
             (Some(s), answering) if answering != Method::Networks => {
-                (if s > 0.0 { answering } else { Method::Networks }, Some(s))
+                let fell_back = s <= 0.0 && answering != Method::Fit;
+                (
+                    if fell_back { Method::Networks } else { answering },
+                    Some(s),
+                )
             }
             _ => (Method::Networks, None),
         }
