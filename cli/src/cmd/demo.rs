@@ -94,7 +94,7 @@ fn config(a: &DemoArgs) -> Result<Config> {
         bail!("--positions {}: expected 1 to 64", a.positions);
     }
     let frame = match a.frame {
-        f if f == 0.0 => None,
+        0.0 => None,
         f if f > 0.0 && f <= 1.0 => Some(f),
         f => bail!("--frame {f}: expected a share in (0, 1], or 0 for the random framing"),
     };

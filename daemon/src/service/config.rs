@@ -808,7 +808,7 @@ fn simulated(
     // 0 keeps the thesis's random framing; absent, the object fills most
     // of the frame.
     let frame = match raw.frame.unwrap_or(DEFAULT_FRAME) {
-        f if f == 0.0 => None,
+        0.0 => None,
         f if f > 0.0 && f <= 1.0 => Some(f),
         f => {
             return Err(invalid(

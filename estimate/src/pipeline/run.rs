@@ -584,7 +584,11 @@ impl FitTally {
             (Some(s), answering) if answering != Method::Networks => {
                 let fell_back = s <= 0.0 && answering != Method::Fit;
                 (
-                    if fell_back { Method::Networks } else { answering },
+                    if fell_back {
+                        Method::Networks
+                    } else {
+                        answering
+                    },
                     Some(s),
                 )
             }
