@@ -695,3 +695,43 @@ mod finite {
         }
     }
 }
+
+#[test]
+fn crossings_count_every_surface_along_the_camera_ray() {
+    use crate::geometry::surface_crossings;
+    // A closed sphere, and a quad behind its right half only.
+    let sphere = icosphere(Vec3::ZERO, 0.5, 3);
+    let sheet = quad(
+        Vec3::new(0.0, -1.0, 1.0),
+        Vec3::new(2.0, 0.0, 0.0),
+        Vec3::new(0.0, 2.0, 0.0),
+    );
+    let scene = RayCaster::new(merge(&[sphere, sheet]));
+    let eye = DVec3::new(0.0, 0.0, -1.5);
+    let c2w = look_at(eye, DVec3::ZERO, DVec3::new(0.0, -1.0, 0.0));
+    let cam = PinholeCamera::new(intrinsics(40, 60.0), c2w);
+    let k = surface_crossings(&scene, &cam);
+    let mut seen = [0usize; 4];
+    for y in 0..40 {
+        for x in 0..40 {
+            let ray = cam.pixel_ray(x, y);
+            let (o, d) = (ray.origin.as_dvec3(), ray.dir.as_dvec3());
+            let Some(t) = ray_sphere(o, d, DVec3::ZERO, 0.5) else {
+                continue;
+            };
+            // Well inside the silhouette, away from the sheet's edge.
+            if (o + d * t).normalize().dot(-d) < 0.5 {
+                continue;
+            }
+            let behind = o + d * ((1.0 - o.z) / d.z);
+            if behind.x.abs() < 0.05 {
+                continue;
+            }
+            let want = if behind.x > 0.0 { 3 } else { 2 };
+            assert_eq!(*k.get(x, y), want, "pixel ({x},{y})");
+            seen[want as usize] += 1;
+        }
+    }
+    assert!(seen[2] > 50 && seen[3] > 50, "{seen:?}");
+    assert_eq!(*k.get(0, 0), 0, "a corner sees only the background");
+}

@@ -162,9 +162,14 @@ pub struct FitSummary {
     pub scale: String,
     /// The reference position's materials.
     pub materials: Vec<crate::fit::MaterialFit>,
-    /// Views left out, pixels without observations.
+    /// Views left out, pixels without observations, measurements that
+    /// could not run.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub notes: Vec<String>,
+    /// The reference position's materials as the subsurface and
+    /// transmission measurement saw them (`crate::fit::transport`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub transport: Vec<crate::fit::transport::MaterialTransport>,
 }
 
 impl ResultFile {
