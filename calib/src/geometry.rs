@@ -119,39 +119,6 @@ pub fn position_geometry(caster: &RayCaster, camera: &PinholeCamera) -> Position
     }
 }
 
-/// Most surfaces [`surface_crossings`] counts along one ray: beyond this
-/// a backlit pixel is dark whatever the material.
-pub const MAX_CROSSINGS: u8 = 16;
-
-/// Per pixel, how many times the straight camera ray through its centre
-/// crosses the mesh (0 on the background): 1 for a sheet seen edge-free, 2
-/// through a closed solid or a slab, more where sheets overlap. What light
-/// from a panel behind the object passes on its straight way to the camera,
-/// the count a backlit photo's transmission is the power of. Refraction is
-/// not followed: the ray's bend inside thin or nearly flat parts is small,
-/// and where it is not (a sphere's rim) the count is that of the silhouette.
-pub fn surface_crossings(caster: &RayCaster, camera: &PinholeCamera) -> Raster<u8> {
-    let (w, h) = (camera.intrinsics.width, camera.intrinsics.height);
-    par_raster(w, h, |x, y| {
-        let mut ray = camera.pixel_ray(x, y);
-        let mut count = 0u8;
-        while count < MAX_CROSSINGS {
-            let Some((_, sp)) = caster.closest(&ray) else {
-                break;
-            };
-            count += 1;
-            // Past the surface along the ray, whichever way it faces.
-            let n = if sp.geometric_normal.dot(ray.dir) > 0.0 {
-                sp.geometric_normal
-            } else {
-                -sp.geometric_normal
-            };
-            ray = matscan_scan::bvh::Ray::new(caster.offset(sp.position, n), ray.dir);
-        }
-        count
-    })
-}
-
 impl PositionGeometry {
     pub fn width(&self) -> u32 {
         self.mask.width

@@ -33,11 +33,9 @@
 //! Boundaries: no file I/O and no networks; the pipeline hands in the
 //! scan's inputs and writes what comes back.
 
-pub mod backlight;
 pub mod linear;
 pub mod materials;
 pub mod separation;
-pub mod transport;
 
 use crate::pipeline::inputs::{SceneInputs, ViewPlanes};
 use crate::refine::model::{directions, Fixed};
@@ -94,9 +92,6 @@ pub struct FitOptions {
     pub basecolor_pull: f64,
     /// Which light the surface is fitted to.
     pub light: FitLight,
-    /// Subsurface and transmission measured per material after the fit
-    /// ([`transport`]); `None` leaves them to the networks.
-    pub transport: Option<transport::TransportOptions>,
 }
 
 /// Which part of the photos' light the surface BSDF is fitted to.
@@ -159,7 +154,6 @@ impl Default for FitOptions {
             island_radius: 2,
             basecolor_pull: 2.0,
             light: FitLight::default(),
-            transport: Some(transport::TransportOptions::default()),
         }
     }
 }

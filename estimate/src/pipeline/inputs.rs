@@ -152,12 +152,6 @@ impl ViewPlanes {
         &self.lit
     }
 
-    /// The position's backlit capture, in the reference image, ambient
-    /// exposure units; `None` where the position has none.
-    pub fn backlit(&self) -> Option<&[[f32; 3]]> {
-        self.backlit.as_deref()
-    }
-
     /// The ambient capture, in the reference image.
     pub fn ambient(&self) -> &[[f32; 3]] {
         &self.ambient

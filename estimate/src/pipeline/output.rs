@@ -162,14 +162,9 @@ pub struct FitSummary {
     pub scale: String,
     /// The reference position's materials.
     pub materials: Vec<crate::fit::MaterialFit>,
-    /// Views left out, pixels without observations, measurements that
-    /// could not run.
+    /// Views left out, pixels without observations.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub notes: Vec<String>,
-    /// The reference position's materials as the subsurface and
-    /// transmission measurement saw them (`crate::fit::transport`).
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub transport: Vec<crate::fit::transport::MaterialTransport>,
 }
 
 impl ResultFile {

@@ -23,7 +23,6 @@
 //! `inputs`), the plan (see `plan`), file layout (see `output`), the fit
 //! (see `refine`).
 
-use crate::fit::transport::{measure_transport, Transport};
 use crate::fit::{fit_scene, Constrained, Fallback, FitOptions, Fitted, Known};
 use crate::net::models::{ModelSource, Models, ModelsError};
 use crate::net::network::InputError;
@@ -477,8 +476,7 @@ impl Pass<'_> {
         let mut fitted = None;
         if self.method.fits() {
             let f = self.fit_values(&mut values, inputs)?;
-            let transport = self.transport_values(&mut values, inputs, &f)?;
-            fits.add(self.method, &f, transport.as_ref(), self.bundle, inputs);
+            fits.add(self.method, &f, self.bundle, inputs);
             fitted = Some(f);
         }
         self.run_networks(after, inputs, &mut values, &mut runs)?;
@@ -522,52 +520,6 @@ impl Pass<'_> {
         )
     }
 
-    /// Subsurface and transmission measured per material of `fitted`
-    /// ([`crate::fit::transport`]) over the networks' values,
-    /// where the plan estimates them; `None` where the options turn the
-    /// measurement off or the plan estimates neither.
-    fn transport_values(
-        &self,
-        values: &mut Values,
-        inputs: &SceneInputs,
-        fitted: &Fitted,
-    ) -> Result<Option<Transport>, EstimateError> {
-        let Some(options) = self.fit.transport.as_ref() else {
-            return Ok(None);
-        };
-        let estimated = |k: Param| *self.plan.decision(k) == Decision::Estimate;
-        let mut transmission = values
-            .scalar
-            .remove(&Param::Transmission)
-            .filter(|_| estimated(Param::Transmission));
-        let mut subsurface = values
-            .scalar
-            .remove(&Param::Subsurface)
-            .filter(|_| estimated(Param::Subsurface));
-        let measured = if transmission.is_none() && subsurface.is_none() {
-            None
-        } else {
-            Some(measure_transport(
-                self.bundle,
-                self.calibration,
-                inputs,
-                fitted,
-                transmission.as_deref_mut(),
-                subsurface.as_deref_mut(),
-                options,
-            )?)
-        };
-        for (kind, map) in [
-            (Param::Transmission, transmission),
-            (Param::Subsurface, subsurface),
-        ] {
-            if let Some(map) = map {
-                values.scalar.insert(kind, map);
-            }
-        }
-        Ok(measured)
-    }
-
     fn fit_values(
         &self,
         values: &mut Values,
@@ -591,28 +543,15 @@ impl Pass<'_> {
 struct FitTally {
     seconds: f64,
     constrained: Option<Constrained>,
-    /// The reference position's measured shares of transmission and
-    /// subsurface, where the measurement ran.
-    transport: Option<(f32, f32)>,
     summary: Option<FitSummary>,
 }
 
 impl FitTally {
-    fn add(
-        &mut self,
-        method: Method,
-        fitted: &Fitted,
-        transport: Option<&Transport>,
-        bundle: &Bundle,
-        inputs: &SceneInputs,
-    ) {
-        self.seconds += fitted.seconds + transport.map_or(0.0, |t| t.seconds);
+    fn add(&mut self, method: Method, fitted: &Fitted, bundle: &Bundle, inputs: &SceneInputs) {
+        self.seconds += fitted.seconds;
         if self.summary.is_some() {
             return;
         }
-        self.transport = transport.map(|t| (t.transmission_share, t.subsurface_share));
-        let mut notes = fitted.notes.clone();
-        notes.extend(transport.iter().flat_map(|t| t.notes.iter().cloned()));
         let position = bundle.position(&inputs.reference).ok();
         let calibrated = position.is_some_and(|p| p.lights.iter().any(|l| l.intensity.is_some()));
         self.constrained = Some(fitted.constrained);
@@ -624,8 +563,7 @@ impl FitTally {
                 "none: the manifest gives no light intensity, the fit could not run".to_string()
             },
             materials: fitted.materials.clone(),
-            notes,
-            transport: transport.map(|t| t.materials.clone()).unwrap_or_default(),
+            notes: fitted.notes.clone(),
         });
     }
 
@@ -638,16 +576,6 @@ impl FitTally {
             Param::Metallic => Some(c.metallic),
             _ => None,
         });
-        // Transmission and subsurface: measured where the photos pin them,
-        // the networks' elsewhere, whichever fitting method ran.
-        let measured = self.transport.and_then(|(tr, ss)| match kind {
-            Param::Transmission => Some(tr),
-            Param::Subsurface => Some(ss),
-            _ => None,
-        });
-        if let Some(s) = measured.filter(|s| *s > 0.0) {
-            return (Method::Hybrid, Some(s));
-        }
         // Under a method that falls back to the networks where the photos
         // pin nothing, a parameter pinned nowhere was the networks' answer
         // throughout; the share still says the fit looked. Under `fit` the
