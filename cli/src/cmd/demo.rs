@@ -93,11 +93,8 @@ fn config(a: &DemoArgs) -> Result<Config> {
     if !(1..=64).contains(&a.positions) {
         bail!("--positions {}: expected 1 to 64", a.positions);
     }
-    let frame = match a.frame {
-        0.0 => None,
-        f if f > 0.0 && f <= 1.0 => Some(f),
-        f => bail!("--frame {f}: expected a share in (0, 1], or 0 for the random framing"),
-    };
+    let frame = matscan_daemon::service::config::framing(a.frame)
+        .map_err(|e| anyhow::anyhow!("--frame {e}"))?;
     if a.samples == 0 {
         bail!("--samples 0: expected at least one sample per pixel");
     }

@@ -253,6 +253,21 @@ impl RigChoice {
 /// object reaches by default (see [`SimulatedRigConfig::frame`]).
 pub const DEFAULT_FRAME: f64 = 0.9;
 
+/// The simulated rig's framing from its setting: 0 keeps the thesis's
+/// random aim and focal length (`None`), a share in (0, 1] frames the
+/// object (see [`SimulatedRigConfig::frame`]); anything else is refused
+/// with what was expected.
+pub fn framing(frame: f64) -> Result<Option<f64>, String> {
+    match frame {
+        0.0 => Ok(None),
+        f if f > 0.0 && f <= 1.0 => Ok(Some(f)),
+        f => Err(format!(
+            "{f}: expected the object's share of the frame in (0, 1], or 0 for the thesis's \
+             random framing"
+        )),
+    }
+}
+
 /// The simulated rig: a generated scene rendered on demand.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SimulatedRigConfig {
@@ -805,18 +820,8 @@ fn simulated(
             "expected at least 1 path per pixel".into(),
         ));
     }
-    // 0 keeps the thesis's random framing; absent, the object fills most
-    // of the frame.
-    let frame = match raw.frame.unwrap_or(DEFAULT_FRAME) {
-        0.0 => None,
-        f if f > 0.0 && f <= 1.0 => Some(f),
-        f => {
-            return Err(invalid(
-                "simulated.frame",
-                format!("{f}: expected the object's share of the frame in (0, 1], or 0 for the thesis's random framing"),
-            ))
-        }
-    };
+    let frame =
+        framing(raw.frame.unwrap_or(DEFAULT_FRAME)).map_err(|e| invalid("simulated.frame", e))?;
     let mut dead_lights = Vec::new();
     for name in &raw.faults.dead_lights {
         let light = matscan_drivers::LightId::from_name(name).ok_or_else(|| {
