@@ -17,8 +17,9 @@
 //! (`Renderer::render_position`), as `matscan simulate` renders a
 //! position's captures: the camera keeps a position's per-emitter images
 //! ([`PhotoCache`]) and renders, on a miss, every rig light and every
-//! projector pattern it has been asked for before in one pass. A scan of
-//! three positions then costs six passes instead of one per photo.
+//! projector pattern an earlier capture showed in one pass. A scan of
+//! three positions of seven captures each costs six passes: four at the
+//! first position (its lights, then each new pattern), one at each other.
 //!
 //! Boundaries: renders through `matscan_sim::render` only; writes nothing
 //! but what [`SimDisk`] is asked to.
@@ -234,17 +235,16 @@ pub struct SimCamera {
 struct PhotoCache {
     position: usize,
     ambient: RgbRaster,
-    lights: Vec<(LightId, RgbRaster)>,
-    patterns: Vec<(ProjectorPattern, RgbRaster)>,
+    emitters: Vec<(Emitter, RgbRaster)>,
 }
 
 impl PhotoCache {
-    fn light(&self, id: LightId) -> Option<&RgbRaster> {
-        self.lights.iter().find(|(l, _)| *l == id).map(|(_, r)| r)
-    }
-
-    fn pattern(&self, p: ProjectorPattern) -> Option<&RgbRaster> {
-        self.patterns.iter().find(|(q, _)| *q == p).map(|(_, r)| r)
+    /// The light of `emitter` alone, where it was rendered.
+    fn get(&self, emitter: Emitter) -> Option<&RgbRaster> {
+        self.emitters
+            .iter()
+            .find(|(e, _)| *e == emitter)
+            .map(|(_, r)| r)
     }
 }
 
@@ -287,83 +287,14 @@ impl SimCamera {
 
     /// The per-emitter images of `position`, rendering what `terms` need
     /// and the cache lacks: a new position gets the environment, every
-    /// light and every pattern seen so far in one pass; a new pattern at
-    /// the same position is rendered alone, and the position's environment
-    /// image is kept.
+    /// light and every pattern an earlier capture showed in one pass; a
+    /// pattern new at this position is rendered alone, over the position's
+    /// environment image already kept.
     fn emitter_images(
         &mut self,
         position: usize,
         terms: &[(Emitter, f32)],
     ) -> Result<&PhotoCache, DriverError> {
-        let stale = self.cache.as_ref().is_none_or(|c| c.position != position);
-        let missing = |c: &PhotoCache, e: &Emitter| match e {
-            Emitter::Light(l) => c.light(*l).is_none(),
-            Emitter::Projector(p) => c.pattern(*p).is_none(),
-        };
-        let mut wanted: Vec<Emitter> = if stale {
-            let mut all: Vec<Emitter> = self
-                .lights_of(position)
-                .into_iter()
-                .map(Emitter::Light)
-                .collect();
-            all.extend(self.patterns_seen.iter().map(|p| Emitter::Projector(*p)));
-            all
-        } else {
-            Vec::new()
-        };
-        for (e, _) in terms {
-            let cached = !stale && self.cache.as_ref().is_some_and(|c| !missing(c, e));
-            if !cached && !wanted.contains(e) {
-                wanted.push(*e);
-            }
-        }
-        if stale || !wanted.is_empty() {
-            let rig = &self.scene.rig.positions[position];
-            let specs: Vec<CaptureSpec> = wanted
-                .iter()
-                .map(|e| match e {
-                    Emitter::Light(l) => CaptureSpec::new(l.name(), &[l.name()], None),
-                    Emitter::Projector(p) => CaptureSpec::new(
-                        &rig.projector.name,
-                        &[rig.projector.name.as_str()],
-                        Some(p.to_pattern()),
-                    ),
-                })
-                .collect();
-            let render_err = |e: matscan_sim::render::SimError| DriverError::Render {
-                device: CAMERA_ID.to_string(),
-                reason: e.to_string(),
-            };
-            let renderer = Renderer::new(&self.scene).map_err(render_err)?;
-            let opts = RenderOptions {
-                samples: self.config.samples.max(1),
-                seed: self.config.seed,
-                ..RenderOptions::default()
-            };
-            let images = renderer
-                .render_position(position, &specs, &opts)
-                .map_err(render_err)?;
-            let cache = match self.cache.take() {
-                Some(c) if !stale => c,
-                _ => PhotoCache {
-                    position,
-                    ambient: images.ambient,
-                    lights: Vec::new(),
-                    patterns: Vec::new(),
-                },
-            };
-            let cache = wanted
-                .iter()
-                .zip(images.light_only)
-                .fold(cache, |mut c, (e, image)| {
-                    match e {
-                        Emitter::Light(l) => c.lights.push((*l, image)),
-                        Emitter::Projector(p) => c.patterns.push((*p, image)),
-                    }
-                    c
-                });
-            self.cache = Some(cache);
-        }
         for (e, _) in terms {
             if let Emitter::Projector(p) = e {
                 if !self.patterns_seen.contains(p) {
@@ -371,10 +302,68 @@ impl SimCamera {
                 }
             }
         }
-        self.cache.as_ref().ok_or_else(|| DriverError::Render {
+        let kept = self.cache.take().filter(|c| c.position == position);
+        let wanted: Vec<Emitter> = match &kept {
+            Some(c) => terms
+                .iter()
+                .map(|(e, _)| *e)
+                .filter(|e| c.get(*e).is_none())
+                .collect(),
+            None => self
+                .lights_of(position)
+                .into_iter()
+                .map(Emitter::Light)
+                .chain(self.patterns_seen.iter().map(|p| Emitter::Projector(*p)))
+                .collect(),
+        };
+        let cache = match kept {
+            Some(c) if wanted.is_empty() => c,
+            kept => {
+                let images = self.render(position, &wanted)?;
+                let mut cache = kept.unwrap_or(PhotoCache {
+                    position,
+                    ambient: images.ambient,
+                    emitters: Vec::new(),
+                });
+                cache
+                    .emitters
+                    .extend(wanted.into_iter().zip(images.light_only));
+                cache
+            }
+        };
+        Ok(self.cache.insert(cache))
+    }
+
+    /// One pass at `position`: the environment and each of `emitters`
+    /// alone at full power.
+    fn render(
+        &self,
+        position: usize,
+        emitters: &[Emitter],
+    ) -> Result<matscan_sim::render::PositionImages, DriverError> {
+        let projector = &self.scene.rig.positions[position].projector.name;
+        let specs: Vec<CaptureSpec> = emitters
+            .iter()
+            .map(|e| match e {
+                Emitter::Light(l) => CaptureSpec::new(l.name(), &[l.name()], None),
+                Emitter::Projector(p) => {
+                    CaptureSpec::new(projector, &[projector.as_str()], Some(p.to_pattern()))
+                }
+            })
+            .collect();
+        let render_err = |e: matscan_sim::render::SimError| DriverError::Render {
             device: CAMERA_ID.to_string(),
-            reason: "no image was rendered".to_string(),
-        })
+            reason: e.to_string(),
+        };
+        let renderer = Renderer::new(&self.scene).map_err(render_err)?;
+        let opts = RenderOptions {
+            samples: self.config.samples.max(1),
+            seed: self.config.seed,
+            ..RenderOptions::default()
+        };
+        renderer
+            .render_position(position, &specs, &opts)
+            .map_err(render_err)
     }
 }
 
@@ -424,11 +413,8 @@ impl Camera for SimCamera {
         let images = self.emitter_images(position, &terms)?;
         let mut rgb: RgbRaster = images.ambient.clone();
         for (emitter, level) in &terms {
-            let light = match emitter {
-                Emitter::Light(l) => images.light(*l),
-                Emitter::Projector(p) => images.pattern(*p),
-            };
-            let Some(light) = light else {
+            // Every term is in the cache `emitter_images` returned.
+            let Some(light) = images.get(*emitter) else {
                 continue;
             };
             for (o, v) in rgb.data.iter_mut().zip(&light.data) {

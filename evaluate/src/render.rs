@@ -37,7 +37,7 @@ use crate::rerender::{
 };
 use anyhow::{bail, Context, Result};
 use matscan_bake::{
-    bake_maps, bake_scan, read_textures, read_truth_maps, texture_dir, BakeOptions, BakedTextures,
+    bake_bundle, bake_maps, read_textures, read_truth_maps, texture_dir, BakeOptions, BakedTextures,
 };
 use matscan_calib::ScanCalibration;
 use matscan_estimate::pipeline::output::ResultFile;
@@ -70,11 +70,13 @@ pub struct RenderOptions {
 }
 
 /// The estimate's textures: the baked files where there are some, else the
-/// per-position maps baked in memory at `bake_size` (the flag says which).
+/// per-position maps baked in memory at `bake_size` (the flag says which),
+/// with the scan's `calibration` where the caller has it.
 pub fn estimated_textures(
-    scan: &Path,
+    bundle: &Bundle,
     estimate_dir: &Path,
     bake_size: u32,
+    calibration: Option<&ScanCalibration>,
 ) -> Result<(BakedTextures, bool)> {
     let dir = texture_dir(estimate_dir);
     if dir.join(matscan_bake::textures::COVERAGE_FILE).is_file() {
@@ -85,7 +87,7 @@ pub fn estimated_textures(
         size: bake_size,
         ..BakeOptions::default()
     };
-    let t = bake_scan(scan, estimate_dir, &options)
+    let t = bake_bundle(bundle, estimate_dir, calibration, &options)
         .with_context(|| format!("baking the estimate in {}", estimate_dir.display()))?;
     Ok((t, true))
 }
@@ -167,7 +169,8 @@ pub fn run(args: &RenderOptions) -> Result<String> {
     };
     let shots = object.shots(&lightings, args.orbit);
     let settings = RenderSettings::new(args.size, args.samples);
-    let (estimated, baked_now) = estimated_textures(&args.scan, &estimate_dir, args.texture_size)?;
+    let (estimated, baked_now) =
+        estimated_textures(&bundle, &estimate_dir, args.texture_size, None)?;
     if baked_now {
         let _ = writeln!(
             report,

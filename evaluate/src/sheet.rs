@@ -22,7 +22,8 @@ use crate::plot::font;
 use crate::render::{estimated_textures, reference_position, true_textures};
 use crate::rerender::{material_from_textures, LightName, Lighting, RenderSettings, ScanObject};
 use anyhow::{Context, Result};
-use matscan_calib::{calibrate_bundle, CalibOptions, PixelMaps};
+use matscan_calib::{calibrate_bundle, CalibOptions, PixelMaps, ScanCalibration};
+use matscan_estimate::pipeline::metrics::error_metrics;
 use matscan_scan::bundle::TruthImage;
 use matscan_scan::estimate_maps::{read_position_maps, MapValues, ESTIMATE_DIR};
 use matscan_scan::raster::{MaskRaster, Raster, RgbRaster, ScalarRaster};
@@ -65,7 +66,7 @@ pub fn draw_contact_sheet(scan: &Path, out: &Path) -> Result<()> {
     let estimate_dir = scan.join(ESTIMATE_DIR);
     let estimated_at = if estimate_dir.is_dir() {
         let reference = reference_position(&bundle, &estimate_dir)?;
-        let estimate = estimate_rows(&bundle, scan, &estimate_dir, &reference)?;
+        let estimate = estimate_rows(&bundle, &estimate_dir, &reference, calibration.as_ref())?;
         let has_rows = !estimate.is_empty();
         rows.extend(estimate);
         has_rows.then_some(reference)
@@ -149,9 +150,9 @@ pub fn draw_contact_sheet(scan: &Path, out: &Path) -> Result<()> {
 /// empty when that position has no maps.
 fn estimate_rows(
     bundle: &Bundle,
-    scan: &Path,
     estimate_dir: &Path,
     reference: &str,
+    calibration: Option<&ScanCalibration>,
 ) -> Result<Vec<(String, Vec<Tile>)>> {
     let Some(maps) = read_position_maps(estimate_dir, reference)
         .with_context(|| format!("reading the estimate of position {reference}"))?
@@ -160,7 +161,7 @@ fn estimate_rows(
     };
     let mut rows = vec![(
         format!("{reference} re-render"),
-        rerender_tiles(bundle, scan, estimate_dir, reference)?,
+        rerender_tiles(bundle, estimate_dir, reference, calibration)?,
     )];
     let mask = match bundle.read_truth(reference, &TruthMap::Mask)? {
         Some(TruthImage::Mask(m)) => Some(m),
@@ -170,24 +171,14 @@ fn estimate_rows(
         let Some(map) = maps.get(param) else {
             continue;
         };
-        let estimate = match map.values() {
-            MapValues::Rgb(r) => r.clone(),
-            MapValues::Scalar(r) => r.map(|&v| [v; 3]),
-        };
+        let truth = bundle.truth_param(reference, param)?;
         let mut tiles = Vec::new();
-        let truth = match bundle.read_truth(reference, &TruthMap::Param(param))? {
-            Some(TruthImage::Rgb(r)) => Some(r),
-            Some(TruthImage::Scalar(r)) => Some(r.map(|&v| [v; 3])),
-            Some(TruthImage::Mask(r)) => Some(r.map(|&m| [if m { 1.0 } else { 0.0 }; 3])),
-            None => None,
-        };
         if let Some(truth) = &truth {
-            tiles.push(tile_rgb(&format!("true {param}"), truth));
+            tiles.push(tile_values(&format!("true {param}"), truth));
         }
-        tiles.push(tile_rgb(&format!("estimated {param}"), &estimate));
-        let channels = if param == Param::Basecolor { 3 } else { 1 };
+        tiles.push(tile_values(&format!("estimated {param}"), map.values()));
         if let (Some(truth), Some(mask)) = (&truth, &mask) {
-            if let Some((error, mad)) = error_map(&estimate, truth, mask, channels) {
+            if let Some((error, mad)) = error_map(map.values(), truth, mask) {
                 tiles.push(tile_rgb(&format!("|error| MAD {mad:.3}"), &error));
             }
         }
@@ -204,9 +195,9 @@ fn estimate_rows(
 /// stderr.
 fn rerender_tiles(
     bundle: &Bundle,
-    scan: &Path,
     estimate_dir: &Path,
     reference: &str,
+    calibration: Option<&ScanCalibration>,
 ) -> Result<Vec<Tile>> {
     let mut tiles = Vec::new();
     let position = bundle.position(reference)?;
@@ -234,9 +225,10 @@ fn rerender_tiles(
         let object = ScanObject::new(bundle, reference)?;
         let shots = object.shots(&[lighting], None);
         let settings = RenderSettings::new(width.clamp(8, 4096), RERENDER_SAMPLES);
-        let (estimated, _) = estimated_textures(scan, estimate_dir, RERENDER_TEXELS)?;
+        let (estimated, _) =
+            estimated_textures(bundle, estimate_dir, RERENDER_TEXELS, calibration)?;
         let mine = object.render(&material_from_textures(&estimated), &shots, settings)?;
-        let truth = match true_textures(bundle, &estimated, None)? {
+        let truth = match true_textures(bundle, &estimated, calibration)? {
             Some(t) => Some(object.render(&material_from_textures(&t), &shots, settings)?),
             None => None,
         };
@@ -269,44 +261,41 @@ fn rerender_tiles(
     Ok(tiles)
 }
 
-/// `|estimate - truth|` over `mask` (averaged over the first `channels`
-/// channels) as a heat map, and its mean; `None` when sizes differ or the
-/// mask is empty.
+/// `|estimate - truth|` per pixel of `mask` (the mean over a colour's
+/// channels) as a heat map, and the MAD `result.toml` reports
+/// (`error_metrics`); `None` when the sizes or channels differ or the mask
+/// holds no finite pixel.
 fn error_map(
-    estimate: &RgbRaster,
-    truth: &RgbRaster,
+    estimate: &MapValues,
+    truth: &MapValues,
     mask: &MaskRaster,
-    channels: usize,
-) -> Option<(RgbRaster, f32)> {
-    if !(estimate.same_size(truth) && estimate.same_size(mask)) {
+) -> Option<(RgbRaster, f64)> {
+    let ((e, channels), (t, truth_channels)) = (estimate.flat(), truth.flat());
+    if channels != truth_channels {
         return None;
     }
-    let (mut sum, mut n) = (0.0f64, 0usize);
-    let data = estimate
-        .data
-        .iter()
-        .zip(&truth.data)
+    let mad = error_metrics(e, t, &mask.data, channels)?.mad;
+    let data = e
+        .chunks_exact(channels)
+        .zip(t.chunks_exact(channels))
         .zip(&mask.data)
         .map(|((e, t), &m)| {
-            let d = (0..channels).map(|c| (e[c] - t[c]).abs()).sum::<f32>() / channels as f32;
-            if !m || !d.is_finite() {
-                return [0.08; 3];
+            let d = e.iter().zip(t).map(|(a, b)| (a - b).abs()).sum::<f32>() / channels as f32;
+            if m && d.is_finite() {
+                heat(d / ERROR_WHITE)
+            } else {
+                [0.08; 3]
             }
-            sum += f64::from(d);
-            n += 1;
-            heat(d / ERROR_WHITE)
         })
         .collect();
-    (n > 0).then(|| {
-        (
-            Raster {
-                width: estimate.width,
-                height: estimate.height,
-                data,
-            },
-            (sum / n as f64) as f32,
-        )
-    })
+    Some((
+        Raster {
+            width: mask.width,
+            height: mask.height,
+            data,
+        },
+        mad,
+    ))
 }
 
 /// Black through red and yellow to white over [0, 1].
@@ -423,6 +412,14 @@ fn tile_rgb(label: &str, img: &RgbRaster) -> Tile {
         width: w,
         height: h,
         rgb,
+    }
+}
+
+/// A parameter map: RGB as it is, one channel as grey.
+fn tile_values(label: &str, values: &MapValues) -> Tile {
+    match values {
+        MapValues::Rgb(r) => tile_rgb(label, r),
+        MapValues::Scalar(r) => tile_scalar(label, r),
     }
 }
 

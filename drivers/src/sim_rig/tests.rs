@@ -124,7 +124,12 @@ fn photos_sum_each_emitters_light_and_a_position_renders_its_emitters_once() {
     rig.positioner.advance().unwrap();
     let cache = |rig: &SimulatedRig| {
         let c = rig.camera.cache.as_ref().unwrap();
-        (c.position, c.lights.len(), c.patterns.len())
+        let patterns = c
+            .emitters
+            .iter()
+            .filter(|(e, _)| matches!(e, Emitter::Projector(_)))
+            .count();
+        (c.position, c.emitters.len() - patterns, patterns)
     };
     rig.projector.show(ProjectorPattern::Black).unwrap();
     rig.camera.capture().unwrap();

@@ -15,7 +15,7 @@
 //! silhouette for every focal length, see [`super::rig`]).
 
 use super::model::Scene;
-use glam::{DMat3, DVec3};
+use glam::DMat3;
 use matscan_scan::camera::look_at;
 
 /// Why a scene cannot be framed.
@@ -44,7 +44,6 @@ pub fn frame_object(scene: &mut Scene, fill: f64) -> Result<(), FramingError> {
     if !(lo.is_finite() && hi.is_finite()) {
         return Err(FramingError::EmptyMesh);
     }
-    let vertices: Vec<DVec3> = scene.mesh.positions.iter().map(|p| p.as_dvec3()).collect();
     let centre = 0.5 * (lo + hi);
     let k = scene.rig.intrinsics;
     let (half_w, half_h) = (k.width as f64 / 2.0, k.height as f64 / 2.0);
@@ -56,9 +55,10 @@ pub fn frame_object(scene: &mut Scene, fill: f64) -> Result<(), FramingError> {
         let aimed = look_at(eye, centre, up);
         let to_camera = DMat3::from_mat4(aimed).transpose();
         let (mut tan_x, mut tan_y) = (0.0f64, 0.0f64);
-        for v in &vertices {
-            let p = to_camera * (*v - eye);
-            if p.z <= 1e-6 * (*v - eye).length().max(1e-12) {
+        for v in &scene.mesh.positions {
+            let offset = v.as_dvec3() - eye;
+            let p = to_camera * offset;
+            if p.z <= 1e-6 * offset.length().max(1e-12) {
                 return Err(FramingError::BehindCamera {
                     position: position.name.clone(),
                 });
@@ -93,6 +93,7 @@ pub fn frame_object(scene: &mut Scene, fill: f64) -> Result<(), FramingError> {
 mod tests {
     use super::*;
     use crate::scene::{generate, GeometryKind, GeometrySource, SceneKind, SceneOptions};
+    use glam::DVec3;
     use matscan_scan::camera::PinholeCamera;
 
     fn scene(geometry: GeometryKind, seed: u64) -> Scene {
