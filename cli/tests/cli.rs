@@ -29,6 +29,15 @@ fn estimate_fresh_scan(tmp: &Path, extra: &[&str]) -> (std::path::PathBuf, std::
     (scan, o)
 }
 
+/// The words of the estimate table's line that starts with `first`.
+fn table_row<'a>(out: &'a str, first: &str) -> Vec<&'a str> {
+    out.lines()
+        .find(|l| l.starts_with(first))
+        .unwrap_or_else(|| panic!("no {first} row in {out}"))
+        .split_whitespace()
+        .collect()
+}
+
 #[test]
 fn demo_captures_through_the_daemon_estimates_and_prints_errors_and_timings() {
     let tmp = tempfile::tempdir().unwrap();
@@ -57,12 +66,7 @@ fn demo_captures_through_the_daemon_estimates_and_prints_errors_and_timings() {
     assert!(out.contains("capture "), "{out}");
     // A row per parameter under a header that names who answered;
     // metallic is always estimable, with its error.
-    let header: Vec<&str> = out
-        .lines()
-        .find(|l| l.starts_with("parameter"))
-        .unwrap_or_else(|| panic!("no table header in {out}"))
-        .split_whitespace()
-        .collect();
+    let header = table_row(&out, "parameter");
     assert_eq!(
         header,
         [
@@ -75,12 +79,7 @@ fn demo_captures_through_the_daemon_estimates_and_prints_errors_and_timings() {
             "seconds"
         ]
     );
-    let metallic: Vec<&str> = out
-        .lines()
-        .find(|l| l.starts_with("metallic"))
-        .unwrap_or_else(|| panic!("no metallic row in {out}"))
-        .split_whitespace()
-        .collect();
+    let metallic = table_row(&out, "metallic");
     assert_eq!(metallic[1], "estimated", "{metallic:?}");
     // The simulated rig calibrates its lights, so the fit runs and answers
     // metallic where the photos pin it, the networks elsewhere.
@@ -119,16 +118,12 @@ fn estimate_writes_the_contract_folder_and_reports_each_parameter() {
         "{out}{}",
         String::from_utf8_lossy(&o.stderr)
     );
-    let row = |p: &str| -> Vec<String> {
-        out.lines()
-            .find(|l| l.starts_with(p))
-            .unwrap_or_else(|| panic!("no {p} row in {out}"))
-            .split_whitespace()
-            .map(str::to_string)
-            .collect()
-    };
-    assert_eq!(row("subsurface")[1..3], ["given", "given"], "{out}");
-    assert_eq!(row("metallic")[1], "estimated", "{out}");
+    assert_eq!(
+        table_row(&out, "subsurface")[1..3],
+        ["given", "given"],
+        "{out}"
+    );
+    assert_eq!(table_row(&out, "metallic")[1], "estimated", "{out}");
     assert!(out.contains("MAD"), "{out}");
     assert!(scan.join("estimate/result.toml").exists());
     // A missing weights folder is named.
