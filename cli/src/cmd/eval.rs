@@ -5,6 +5,7 @@ use anyhow::{Context, Result};
 use clap::Args;
 use matscan_estimate::fit::FitLight;
 use matscan_estimate::pipeline::method::Method;
+use matscan_estimate::pipeline::oracle::Oracles;
 use matscan_evaluate::eval::tables::GroupBy;
 use matscan_evaluate::eval::{run as evaluate, DependencySource, EvalOptions};
 use std::path::PathBuf;
@@ -65,6 +66,13 @@ pub struct EvalArgs {
     /// projector's checker subtracted; see `matscan estimate --help`).
     #[arg(long, value_name = "LIGHT")]
     pub fit_light: Option<FitLight>,
+    /// The error budget: besides the estimate as it is, estimate again with
+    /// each SET of pieces fed from the truth (repeatable; a SET is pieces
+    /// joined by commas, from segmentation, roughness, metallic,
+    /// transmission and subsurface) and print each parameter's MAD per set
+    /// and scene kind, at the last count of --views. Simulated scans only.
+    #[arg(long, value_name = "SET")]
+    pub oracle: Vec<Oracles>,
 }
 
 /// Runs `matscan eval`: prints the tables, writes the CSV.
@@ -81,6 +89,7 @@ pub fn run(a: &EvalArgs) -> Result<()> {
         textures: a.textures,
         method: a.method,
         fit_light: a.fit_light,
+        oracles: a.oracle.clone(),
     })?;
     print!("{}", report.table);
     if let Some(path) = &a.csv {

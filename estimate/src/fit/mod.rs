@@ -46,7 +46,7 @@ use crate::refine::RefineError;
 use linear::{
     footprint_alpha2, responses, solve, solve_pulled, LinearFit, Noise, Pull, Response, Sample,
 };
-use materials::{feature, split, Feature, SplitOptions};
+use materials::{feature, split, Feature, Split, SplitOptions};
 use matscan_calib::ScanCalibration;
 use matscan_scan::Bundle;
 use rayon::prelude::*;
@@ -107,16 +107,30 @@ pub enum FitLight {
     /// roughness's (0.184 to 0.174) for 0.002 of basecolor's.
     #[default]
     Direct,
+    /// The direct light, except for a material whose measured global light
+    /// is at least [`SCATTERING_SHARE`] of its total light: light that
+    /// scatters inside before it leaves is part of what such a material's
+    /// basecolor reflects (a diffusion albedo), so it is fitted to its
+    /// total light.
+    Material,
 }
 
+/// The share of a material's lit-minus-ambient light that is global at
+/// which [`FitLight::Material`] fits it to its total light. On a convex
+/// opaque object the global light is interreflection, a few per cent of
+/// what a point reflects; light scattered under the surface is a large
+/// share of it (the checker's blur).
+pub const SCATTERING_SHARE: f64 = 0.3;
+
 impl FitLight {
-    pub const ALL: [FitLight; 2] = [FitLight::Total, FitLight::Direct];
+    pub const ALL: [FitLight; 3] = [FitLight::Total, FitLight::Direct, FitLight::Material];
 
     /// The name on the command line.
     pub fn name(self) -> &'static str {
         match self {
             FitLight::Total => "total",
             FitLight::Direct => "direct",
+            FitLight::Material => "material",
         }
     }
 }
@@ -129,7 +143,7 @@ impl std::fmt::Display for FitLight {
 
 /// A `--fit-light` value that is not one.
 #[derive(Debug, thiserror::Error)]
-#[error("unknown fit light {0:?}: expected total or direct")]
+#[error("unknown fit light {0:?}: expected total, direct or material")]
 pub struct UnknownFitLight(pub String);
 
 impl std::str::FromStr for FitLight {
@@ -174,6 +188,9 @@ pub struct Fallback<'a> {
 pub struct Known<'a> {
     pub roughness: Option<&'a [f32]>,
     pub metallic: Option<&'a [f32]>,
+    /// The materials, per reference pixel, in place of the fit's own split
+    /// (the error budget's segmentation oracle).
+    pub labels: Option<&'a [Option<usize>]>,
 }
 
 /// What the fit found of one material.
@@ -191,7 +208,9 @@ pub struct MaterialFit {
     pub metallic_pinned: bool,
     /// Fitted to its total light, not its direct light: the direct light
     /// pinned it as metal and the total light did not, the signature of a
-    /// material that scatters light inside or through it.
+    /// material that scatters light inside or through it; or, under
+    /// [`FitLight::Material`], its measured global share was at least
+    /// [`SCATTERING_SHARE`] (it is then dielectric).
     #[serde(default)]
     pub scattering: bool,
 }
@@ -235,6 +254,31 @@ impl Fitted {
     }
 }
 
+impl Fitted {
+    /// Writes the fitted basecolor into `basecolor` at the pixels whose
+    /// material pinned both roughness and metallic (a surface lobe explains
+    /// its photos), leaving every other pixel as it was; returns the share
+    /// of the labelled pixels written.
+    pub fn pinned_basecolor_into(&self, basecolor: &mut [[f32; 3]]) -> f32 {
+        let (mut written, mut object) = (0usize, 0usize);
+        for ((b, label), fit) in basecolor.iter_mut().zip(&self.labels).zip(&self.basecolor) {
+            let Some(m) = label.and_then(|j| self.materials.get(j)) else {
+                continue;
+            };
+            object += 1;
+            if m.roughness_pinned && m.metallic_pinned && fit.iter().all(|v| v.is_finite()) {
+                *b = fit.map(|v| v.clamp(0.0, 1.0));
+                written += 1;
+            }
+        }
+        if object == 0 {
+            0.0
+        } else {
+            written as f32 / object as f32
+        }
+    }
+}
+
 /// One pixel's cost and basecolor at each grid point (metallic-major),
 /// from its own photos alone.
 struct Volume {
@@ -273,7 +317,7 @@ pub fn fit_scene(
         }
         lighting.push(l);
     }
-    if options.light == FitLight::Direct {
+    if options.light != FitLight::Total {
         subtract_global(bundle, calibration, inputs, &mut lighting, &mut notes)?;
     }
     let mask = &inputs.mask.data;
@@ -483,12 +527,25 @@ where
         .iter()
         .map(|v| Some(feature(v.as_ref()?.basecolor[reference])))
         .collect();
-    let mut parts = split(&features, &options.split);
-    // A highlight is a few bright pixels inside its material: its own
-    // answer places it elsewhere, but it is the one place the material
-    // shows its roughness. A mode filter gives such islands back to the
-    // material around them.
-    parts.labels = mode_filter(&parts.labels, width, options.island_radius);
+    let parts = match known.labels {
+        // Given materials keep only the pixels the fit can place.
+        Some(labels) => Split {
+            labels: (0..n)
+                .map(|i| features[i].and(labels.get(i).copied().flatten()))
+                .collect(),
+            count: labels.iter().flatten().max().map_or(0, |m| m + 1),
+        },
+        None => {
+            let mut parts = split(&features, &options.split);
+            // A highlight is a few bright pixels inside its material: its
+            // own answer places it elsewhere, but it is the one place the
+            // material shows its roughness. A mode filter gives such
+            // islands back to the material around them.
+            parts.labels = mode_filter(&parts.labels, width, options.island_radius);
+            parts
+        }
+    };
+    let mut parts = parts;
     // Materials the filter emptied are dropped, the rest renumbered.
     let mut renumber = vec![None; parts.count];
     let mut next = 0;
@@ -506,6 +563,7 @@ where
     // A material's roughness and metallic: the grid point with the least
     // cost summed over its pixels, each with its own best basecolor.
     let points = grid.len() * METALLIC_GRID.len();
+    let dielectric = vec![0.0f32; n];
     let mut materials = Vec::with_capacity(parts.count);
     for j in 0..parts.count {
         let list: Vec<usize> = (0..n).filter(|&i| parts.labels[i] == Some(j)).collect();
@@ -516,13 +574,16 @@ where
             }
         }
         let mut material = choose(&by_direct, &grid, &list, known, fallback, options);
+        let scatters = separated
+            && options.light == FitLight::Material
+            && global_share(&list, &total_light) >= SCATTERING_SHARE;
         // A material whose direct light pins it as metal but whose total
         // light does not scatters light inside or through it: its direct
         // light is its specular lobe alone (a metal's signature), its
         // total light the light it scatters back. Metals scatter nothing
         // inside, so such a material is fitted to its total light.
         let pinned_metal = |m: &MaterialFit| m.metallic_pinned && m.metallic >= 0.5;
-        if separated && known.metallic.is_none() && pinned_metal(&material) {
+        if scatters || (separated && known.metallic.is_none() && pinned_metal(&material)) {
             let by_total = list
                 .par_iter()
                 .filter_map(|&i| volume_of(i, &total_light[i]))
@@ -531,8 +592,18 @@ where
                     || vec![0.0f64; points],
                     |a, b| a.iter().zip(&b).map(|(x, y)| x + y).collect(),
                 );
-            let in_total = choose(&by_total, &grid, &list, known, fallback, options);
-            if !pinned_metal(&in_total) {
+            // Light that scatters inside is no metal's: the global share
+            // pins such a material dielectric.
+            let known_total = if scatters {
+                Known {
+                    metallic: Some(&dielectric),
+                    ..known
+                }
+            } else {
+                known
+            };
+            let in_total = choose(&by_total, &grid, &list, known_total, fallback, options);
+            if scatters || !pinned_metal(&in_total) {
                 material = MaterialFit {
                     scattering: true,
                     ..in_total
@@ -675,6 +746,23 @@ where
     out.materials = materials;
     out.seconds = t.elapsed().as_secs_f64();
     out
+}
+
+/// The share of the light the pixels `members` show that is global
+/// (summed over channels and usable views); 0 where nothing was measured.
+fn global_share(members: &[usize], observations: &[Vec<Sample>]) -> f64 {
+    let (mut global, mut total) = (0.0f64, 0.0f64);
+    for s in members.iter().flat_map(|&i| &observations[i]) {
+        for c in 0..3 {
+            global += f64::from(s.global[c].max(0.0));
+            total += f64::from(s.observation.observed[c].max(0.0));
+        }
+    }
+    if total > 0.0 && global.is_finite() {
+        (global / total).min(1.0)
+    } else {
+        0.0
+    }
 }
 
 /// Every usable view of reference pixel `i` (views whose lighting is

@@ -299,7 +299,7 @@ fn fit_light_names_round_trip_and_a_wrong_one_says_what_was_expected() {
     let e = "global".parse::<FitLight>().err().map(|e| e.to_string());
     assert_eq!(
         e.as_deref(),
-        Some("unknown fit light \"global\": expected total or direct")
+        Some("unknown fit light \"global\": expected total, direct or material")
     );
 }
 
@@ -332,4 +332,177 @@ fn pinned_roughness_replaces_only_the_pixels_of_materials_that_pinned_it() {
     fitted.pinned_roughness_into(&mut roughness);
     // Pinned; unpinned material; outside every material; pinned but NaN.
     assert_eq!(roughness, vec![0.2, 0.6, 0.6, 0.6]);
+}
+
+#[test]
+fn given_materials_replace_the_split_and_keep_each_its_own_roughness() {
+    // Two dielectrics of one colour differ only in their lobe: the split,
+    // which reads colour, cannot tell them apart; given labels can.
+    let side = 48;
+    let glossy = Params {
+        roughness: 0.1,
+        ..RED_PLASTIC
+    };
+    let rough = Params {
+        roughness: 0.6,
+        ..RED_PLASTIC
+    };
+    let left = |i: usize| (i % side) < side / 2;
+    let truth = |i: usize| if left(i) { glossy } else { rough };
+    let mask: Vec<bool> = (0..side * side)
+        .map(|i| normal(i, side).is_some())
+        .collect();
+    let labels: Vec<Option<usize>> = (0..side * side)
+        .map(|i| mask[i].then_some(usize::from(!left(i))))
+        .collect();
+    let fitted = fit_pixels(
+        &mask,
+        side,
+        |i| observe(i, side, &truth),
+        &vec![0.0; side * side],
+        Known {
+            labels: Some(&labels),
+            ..Known::default()
+        },
+        None,
+        &FitOptions::default(),
+    );
+    assert_eq!(fitted.materials.len(), 2, "{:?}", fitted.materials);
+    for (material, want) in fitted.materials.iter().zip([glossy, rough]) {
+        let rel = (material.roughness - want.roughness).abs() / want.roughness;
+        assert!(rel < 0.1, "{material:?} against {}", want.roughness);
+        assert_eq!(material.metallic, 0.0);
+    }
+    assert!(fitted
+        .labels
+        .iter()
+        .zip(&labels)
+        .all(|(got, given)| got == given || got.is_none()));
+}
+
+#[test]
+fn pinned_basecolor_replaces_only_the_pixels_of_materials_whose_lobe_is_pinned() {
+    let material = |roughness_pinned: bool, metallic_pinned: bool| MaterialFit {
+        pixels: 1,
+        basecolor: [0.5; 3],
+        roughness: 0.3,
+        metallic: 0.0,
+        roughness_pinned,
+        metallic_pinned,
+        scattering: false,
+    };
+    let fitted = Fitted {
+        basecolor: vec![
+            [0.8, 0.2, 0.1],
+            [0.3; 3],
+            [0.9; 3],
+            [f32::NAN; 3],
+            [1.4, 0.2, 0.2],
+        ],
+        roughness: vec![0.3; 5],
+        metallic: vec![0.0; 5],
+        labels: vec![Some(0), Some(1), None, Some(0), Some(0)],
+        materials: vec![material(true, true), material(true, false)],
+        constrained: Constrained::default(),
+        notes: Vec::new(),
+        seconds: 0.0,
+    };
+    let mut basecolor = vec![[0.5f32; 3]; 5];
+    let share = fitted.pinned_basecolor_into(&mut basecolor);
+    // Pinned lobe; metallic unpinned; outside every material; NaN; clamped.
+    assert_eq!(
+        basecolor,
+        vec![
+            [0.8, 0.2, 0.1],
+            [0.5; 3],
+            [0.5; 3],
+            [0.5; 3],
+            [1.0, 0.2, 0.2]
+        ]
+    );
+    assert_eq!(share, 0.5);
+}
+
+/// `observe`'s views of pixel `i` with `share` of each view's light global
+/// (scattered inside): the total light is what the truth renders.
+fn observe_scattering(
+    i: usize,
+    side: usize,
+    truth: &dyn Fn(usize) -> Params,
+    share: f32,
+) -> Vec<Sample> {
+    observe(i, side, truth)
+        .into_iter()
+        .map(|mut s| {
+            s.global = s.observation.observed.map(|o| share * o);
+            s
+        })
+        .collect()
+}
+
+#[test]
+fn a_material_whose_light_is_largely_global_is_fitted_to_its_total_light_as_a_dielectric() {
+    let side = 40;
+    let truth = |_: usize| Params {
+        basecolor: [0.6, 0.45, 0.3],
+        roughness: 0.5,
+        metallic: 0.0,
+    };
+    let mask: Vec<bool> = (0..side * side)
+        .map(|i| normal(i, side).is_some())
+        .collect();
+    let fit = |light: FitLight| {
+        fit_pixels(
+            &mask,
+            side,
+            |i| observe_scattering(i, side, &truth, 0.4),
+            &vec![0.0; side * side],
+            Known::default(),
+            None,
+            &FitOptions {
+                light,
+                ..FitOptions::default()
+            },
+        )
+    };
+    let mean_red = |f: &Fitted| {
+        let object: Vec<usize> = (0..side * side).filter(|&i| mask[i]).collect();
+        object.iter().map(|&i| f.basecolor[i][0]).sum::<f32>() / object.len() as f32
+    };
+    let direct = fit(FitLight::Direct);
+    let material = fit(FitLight::Material);
+    // The direct light alone reads the material 40 % darker; the material
+    // rule measures its global share and fits the total light.
+    assert!(mean_red(&direct) < 0.45, "{}", mean_red(&direct));
+    assert!(
+        (mean_red(&material) - 0.6).abs() < 0.05,
+        "{}",
+        mean_red(&material)
+    );
+    assert!(material
+        .materials
+        .iter()
+        .all(|m| m.scattering && m.metallic == 0.0));
+    assert!(direct.materials.iter().all(|m| !m.scattering));
+}
+
+#[test]
+fn a_material_with_little_global_light_keeps_its_direct_light_under_the_material_rule() {
+    let side = 40;
+    let mask: Vec<bool> = (0..side * side)
+        .map(|i| normal(i, side).is_some())
+        .collect();
+    let fitted = fit_pixels(
+        &mask,
+        side,
+        |i| observe_scattering(i, side, &|_| RED_PLASTIC, 0.1),
+        &vec![0.0; side * side],
+        Known::default(),
+        None,
+        &FitOptions {
+            light: FitLight::Material,
+            ..FitOptions::default()
+        },
+    );
+    assert!(fitted.materials.iter().all(|m| !m.scattering));
 }

@@ -42,15 +42,22 @@ pub enum Method {
     #[default]
     #[serde(rename = "fit-specular")]
     FitSpecular,
+    /// [`Method::FitSpecular`], and then basecolor too where the fit pinned
+    /// its material's lobe (roughness and metallic both): where a surface
+    /// lobe explains the photos, the basecolor solved under it is a
+    /// measurement; elsewhere the basecolor network's answer stands.
+    #[serde(rename = "fit-surface")]
+    FitSurface,
 }
 
 impl Method {
-    pub const ALL: [Method; 5] = [
+    pub const ALL: [Method; 6] = [
         Method::Networks,
         Method::Fit,
         Method::Hybrid,
         Method::FitMetallic,
         Method::FitSpecular,
+        Method::FitSurface,
     ];
 
     pub fn name(self) -> &'static str {
@@ -60,6 +67,7 @@ impl Method {
             Method::Hybrid => "hybrid",
             Method::FitMetallic => "fit-metallic",
             Method::FitSpecular => "fit-specular",
+            Method::FitSurface => "fit-surface",
         }
     }
 
@@ -86,7 +94,7 @@ impl Method {
                 &[Param::Metallic, Param::Transmission, Param::Subsurface],
                 &[Param::Roughness, Param::Basecolor],
             ),
-            Method::FitSpecular => (
+            Method::FitSpecular | Method::FitSurface => (
                 &[Param::Metallic, Param::Transmission, Param::Subsurface],
                 &[Param::Roughness, Param::Basecolor],
             ),
@@ -96,7 +104,13 @@ impl Method {
     /// Whether the fit's roughness, where the photos pin it, replaces the
     /// networks' after the networks that follow the fit have run.
     pub fn fit_roughness_last(self) -> bool {
-        self == Method::FitSpecular
+        matches!(self, Method::FitSpecular | Method::FitSurface)
+    }
+
+    /// Whether the fit's basecolor, where the photos pinned its material's
+    /// lobe, replaces the networks' after they have run.
+    pub fn fit_basecolor_last(self) -> bool {
+        self == Method::FitSurface
     }
 
     /// Who answers `kind` under this method, as `result.toml` names it:
@@ -107,6 +121,10 @@ impl Method {
             (Method::FitMetallic, _) => Method::Networks,
             (Method::FitSpecular, Param::Metallic | Param::Roughness) => Method::Hybrid,
             (Method::FitSpecular, _) => Method::Networks,
+            (Method::FitSurface, Param::Metallic | Param::Roughness | Param::Basecolor) => {
+                Method::Hybrid
+            }
+            (Method::FitSurface, _) => Method::Networks,
             (m, Param::Basecolor | Param::Roughness | Param::Metallic) => m,
             _ => Method::Networks,
         }
@@ -121,7 +139,10 @@ impl fmt::Display for Method {
 
 /// A method name that is not one.
 #[derive(Debug, thiserror::Error)]
-#[error("unknown method {0:?}: expected networks, fit, hybrid, fit-metallic or fit-specular")]
+#[error(
+    "unknown method {0:?}: expected networks, fit, hybrid, fit-metallic, fit-specular or \
+     fit-surface"
+)]
 pub struct UnknownMethod(pub String);
 
 impl FromStr for Method {
@@ -182,7 +203,10 @@ mod tests {
         let e = "physics".parse::<Method>().err().map(|e| e.to_string());
         assert_eq!(
             e.as_deref(),
-            Some("unknown method \"physics\": expected networks, fit, hybrid, fit-metallic or fit-specular")
+            Some(
+                "unknown method \"physics\": expected networks, fit, hybrid, fit-metallic, \
+                 fit-specular or fit-surface"
+            )
         );
     }
 }

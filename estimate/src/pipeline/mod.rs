@@ -6,6 +6,7 @@
 //! - [`method`]: networks, the physical fit, or both;
 //! - [`run`]: runs it all ([`estimate`](run::estimate));
 //! - [`metrics`]: MAD, MSE, PSNR against ground truth;
+//! - [`oracle`]: truth fed one piece at a time (the error budget);
 //! - [`output`]: the atomic `estimate/` folder and `result.toml`;
 //! - [`truth_fed`]: scenes prepared for one network with the truth of its
 //!   dependencies (training and the thesis's independent evaluation).
@@ -13,6 +14,7 @@
 pub mod inputs;
 pub mod method;
 pub mod metrics;
+pub mod oracle;
 pub mod output;
 pub mod plan;
 pub mod run;

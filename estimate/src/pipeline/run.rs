@@ -31,6 +31,7 @@ use crate::pipeline::inputs::{
 };
 use crate::pipeline::method::Method;
 use crate::pipeline::metrics::error_metrics;
+use crate::pipeline::oracle::{OracleError, Oracles};
 use crate::pipeline::output::{
     write_estimate, FitSummary, OutputError, ParamResult, ResultFile, Status, Timings,
     RESULT_FORMAT,
@@ -71,6 +72,9 @@ pub struct EstimateOptions {
     pub method: Method,
     /// The physical fit's settings (for every method but `Networks`).
     pub fit: FitOptions,
+    /// Truth fed in place of measurement (the error budget of `matscan
+    /// eval --oracle`); empty for every estimate a user gets.
+    pub oracle: Oracles,
 }
 
 /// Which positions' camera images get maps.
@@ -127,6 +131,9 @@ pub enum EstimateError {
         /// The backend's message.
         message: String,
     },
+    /// An oracle's truth could not be read.
+    #[error("oracle: {0}")]
+    Oracle(#[from] OracleError),
     /// A given map does not fit the reference image.
     #[error("--given {param}={path}: {reason}")]
     GivenMap {
@@ -254,7 +261,10 @@ pub fn estimate_prepared(
         backlit: inputs.views.iter().any(|v| v.has_backlit()),
         checker: inputs.views.iter().any(|v| v.has_checker()),
     };
-    let plan = Plan::new(options.only.as_deref(), &options.given, available)?;
+    let mut given = options.given.clone();
+    given.extend(options.oracle.given(bundle, &set.reference)?);
+    let plan = Plan::new(options.only.as_deref(), &given, available)?;
+    let truth_labels = options.oracle.labels(bundle, &set.reference)?;
 
     let t = Instant::now();
     let kinds: Vec<Param> = plan.networks().collect();
@@ -271,6 +281,7 @@ pub fn estimate_prepared(
         refine: &options.refine,
         method: options.method,
         fit: &options.fit,
+        truth_labels: truth_labels.as_deref(),
         device,
     };
     let (first, mut runs, given_s) = pass.run(&inputs, &mut tally, &mut fits)?;
@@ -281,10 +292,7 @@ pub fn estimate_prepared(
     let mut warnings = inputs.warnings.clone();
     let mut positions = vec![first];
     if options.references == References::Every {
-        let given_map = options
-            .given
-            .iter()
-            .find(|(_, g)| matches!(g, Given::Map(_)));
+        let given_map = given.iter().find(|(_, g)| matches!(g, Given::Map(_)));
         for name in set.usable.iter().filter(|p| **p != set.reference) {
             if let Some((kind, _)) = given_map {
                 warnings.push(format!(
@@ -457,6 +465,9 @@ struct Pass<'a> {
     refine: &'a RefineOptions,
     method: Method,
     fit: &'a FitOptions,
+    /// The truth's materials in the reference image (the segmentation
+    /// oracle), which the fit then uses instead of its own.
+    truth_labels: Option<&'a [Option<usize>]>,
     device: &'a Device,
 }
 
@@ -473,15 +484,20 @@ impl Pass<'_> {
         let mut values = held_values(self.plan, inputs)?;
         let mut runs = BTreeMap::new();
         self.run_networks(before, inputs, &mut values, &mut runs)?;
-        let mut fitted = None;
-        if self.method.fits() {
-            let f = self.fit_values(&mut values, inputs)?;
-            fits.add(self.method, &f, self.bundle, inputs);
-            fitted = Some(f);
-        }
+        let fitted = if self.method.fits() {
+            Some(self.fit_values(&mut values, inputs)?)
+        } else {
+            None
+        };
         self.run_networks(after, inputs, &mut values, &mut runs)?;
-        if let Some(f) = fitted.filter(|_| self.method.fit_roughness_last()) {
-            pinned_roughness_over(&mut values, self.plan, &f);
+        if let Some(mut f) = fitted {
+            if self.method.fit_roughness_last() {
+                pinned_roughness_over(&mut values, self.plan, &f);
+            }
+            if self.method.fit_basecolor_last() {
+                f.constrained.basecolor = pinned_basecolor_over(&mut values, self.plan, &f);
+            }
+            fits.add(self.method, &f, self.bundle, inputs);
         }
         let confidence = refine_values(
             &mut values,
@@ -533,6 +549,7 @@ impl Pass<'_> {
             inputs,
             self.method,
             self.fit,
+            self.truth_labels,
         )
     }
 }
@@ -608,6 +625,7 @@ fn fit_values(
     inputs: &SceneInputs,
     method: Method,
     options: &FitOptions,
+    labels: Option<&[Option<usize>]>,
 ) -> Result<Fitted, EstimateError> {
     let n = inputs.pixels();
     let estimated = |k: Param| *plan.decision(k) == Decision::Estimate;
@@ -623,6 +641,7 @@ fn fit_values(
         metallic: (!estimated(Param::Metallic))
             .then(|| values.scalar.get(&Param::Metallic).map(Vec::as_slice))
             .flatten(),
+        labels,
     };
     let grey = vec![[0.5f32; 3]; n];
     let half = vec![0.5f32; n];
@@ -674,6 +693,19 @@ fn pinned_roughness_over(values: &mut Values, plan: &Plan, fitted: &Fitted) {
     }
     if let Some(roughness) = values.scalar.get_mut(&Param::Roughness) {
         fitted.pinned_roughness_into(roughness);
+    }
+}
+
+/// Puts the fit's basecolor into `values` at the pixels whose material
+/// pinned its lobe (an estimated basecolor only); returns the share of the
+/// object it answered.
+fn pinned_basecolor_over(values: &mut Values, plan: &Plan, fitted: &Fitted) -> f32 {
+    if *plan.decision(Param::Basecolor) != Decision::Estimate {
+        return 0.0;
+    }
+    match values.basecolor.as_mut() {
+        Some(basecolor) => fitted.pinned_basecolor_into(basecolor),
+        None => 0.0,
     }
 }
 

@@ -17,6 +17,10 @@
 //! Run time is the estimate's own `total_s` (load, calibration, inputs,
 //! weights, networks, metrics; writing excluded), as a median per scan.
 //!
+//! `--oracle SET` (repeatable) prints the error budget instead (see
+//! [`budget`]): the chained estimate as it is and with each set of pieces
+//! fed from the truth, at the last count of `--views`.
+//!
 //! `--dependencies truth` evaluates each network on its own, fed the truth
 //! of what it reads, as the thesis's tables were measured (see
 //! [`independent`]); the default runs the chained estimate a user gets.
@@ -24,6 +28,7 @@
 //! Boundaries: reads scans, calls `matscan_estimate::estimate` into a
 //! scratch folder, returns the tables; changes no scan.
 
+pub mod budget;
 pub mod chained;
 pub mod independent;
 pub mod options;
@@ -77,6 +82,14 @@ pub fn run(args: &EvalOptions) -> Result<EvalReport> {
             );
         }
     }
+    if !args.oracles.is_empty() {
+        if args.dependencies == DependencySource::Truth {
+            bail!("--oracle feeds the chained estimate; drop --dependencies truth");
+        }
+        if args.textures.is_some() {
+            bail!("--oracle scores the reference maps; drop --textures");
+        }
+    }
     let baseline_scans = match &args.baseline_from {
         Some(dir) => scans_in(dir)?,
         None => scans.clone(),
@@ -115,6 +128,14 @@ pub fn run(args: &EvalOptions) -> Result<EvalReport> {
             }
         }
     );
+    if !args.oracles.is_empty() {
+        let budget = budget::run_budget(args, &scans, &baseline, &scratch, &device);
+        table.push_str(&budget.table);
+        return Ok(EvalReport {
+            table,
+            csv: budget.csv,
+        });
+    }
     let configurations = match args.dependencies {
         DependencySource::Estimated => {
             chained_configurations(args, &scans, &baseline, &scratch, &device)

@@ -33,6 +33,10 @@ pub struct EvalOptions {
     pub method: Option<matscan_estimate::pipeline::method::Method>,
     /// Which light the physical fit explains (`None`: the fit's default).
     pub fit_light: Option<matscan_estimate::fit::FitLight>,
+    /// Sets of truth pieces to feed the chained estimate, one budget row
+    /// each beside the estimate as it is (see [`super::budget`]); empty:
+    /// no budget.
+    pub oracles: Vec<matscan_estimate::pipeline::oracle::Oracles>,
 }
 
 /// The printed tables and the CSV of one evaluation.
