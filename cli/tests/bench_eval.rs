@@ -66,6 +66,7 @@ fn bench_quick_writes_a_row_per_setting_with_finite_figures_and_a_png() {
             ("method", "hybrid"),
             ("method", "fit-metallic"),
             ("method", "fit-specular"),
+            ("method", "fit-surface"),
             ("views", "1 view"),
             ("views", "all views"),
             ("resolution", "32 px"),
@@ -255,4 +256,66 @@ fn truth_fed_eval_matches_the_chained_one_for_networks_without_dependencies() {
     assert!(!refused.status.success());
     let stderr = String::from_utf8_lossy(&refused.stderr);
     assert!(stderr.contains("--textures"), "{stderr}");
+}
+
+#[test]
+fn the_error_budget_feeds_each_set_of_truth_pieces_and_scores_the_rest_against_the_estimate_as_it_is() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scan = tmp.path().join("2mat");
+    simulate(&scan, "2mat", "3");
+    let csv_path = tmp.path().join("budget.csv");
+    let stdout = matscan_ok(&[
+        "eval",
+        scan.to_str().unwrap(),
+        "--views",
+        "0",
+        "--method",
+        "fit",
+        "--oracle",
+        "roughness,metallic",
+        "--oracle",
+        "segmentation",
+        "--csv",
+        csv_path.to_str().unwrap(),
+    ]);
+    assert!(stdout.contains("error budget, all views, method fit"), "{stdout}");
+    assert!(stdout.contains("truth"), "{stdout}");
+    let csv = std::fs::read_to_string(&csv_path).unwrap();
+    let lines: Vec<&str> = csv.lines().collect();
+    let header = fields(lines[0]);
+    assert_eq!(header[..4], ["views", "oracle", "group", "param"]);
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let rows: Vec<Vec<&str>> = lines[1..].iter().map(|l| fields(l)).collect();
+    let cell = |oracle: &str, param: &str, c: &str| -> Option<f64> {
+        rows.iter()
+            .find(|r| r[col("oracle")] == oracle && r[col("group")] == "ALL" && r[col("param")] == param)
+            .map(|r| r[col(c)].parse().unwrap())
+    };
+    // The estimate as it is: every parameter, no change against itself.
+    for p in ["basecolor", "roughness", "metallic", "transmission", "subsurface"] {
+        let mad = cell("none", p, "mad").unwrap_or_else(|| panic!("no none row for {p}"));
+        assert!((0.0..=1.0).contains(&mad), "{p}: {mad}");
+        assert_eq!(cell("none", p, "delta_mad"), Some(0.0), "{p}");
+    }
+    // Fed pieces are not scored; the rest are, with their change.
+    assert_eq!(cell("roughness,metallic", "roughness", "mad"), None);
+    assert_eq!(cell("roughness,metallic", "metallic", "mad"), None);
+    let fed = cell("roughness,metallic", "basecolor", "mad").unwrap();
+    let delta = cell("roughness,metallic", "basecolor", "delta_mad").unwrap();
+    let none = cell("none", "basecolor", "mad").unwrap();
+    assert!((fed - none - delta).abs() < 1e-3, "{fed} {none} {delta}");
+    assert!(cell("segmentation", "roughness", "mad").is_some());
+
+    // A scan without truth maps cannot be fed them, and says which map.
+    std::fs::remove_file(scan.join("truth").join("p0").join("roughness.exr")).unwrap();
+    let stdout = matscan_ok(&[
+        "eval",
+        scan.to_str().unwrap(),
+        "--views",
+        "0",
+        "--oracle",
+        "roughness",
+    ]);
+    assert!(stdout.contains("failed: oracle roughness"), "{stdout}");
+    assert!(stdout.contains("roughness.exr"), "{stdout}");
 }
