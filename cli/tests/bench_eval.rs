@@ -66,7 +66,7 @@ fn bench_quick_writes_a_row_per_setting_with_finite_figures_and_a_png() {
             ("method", "hybrid"),
             ("method", "fit-metallic"),
             ("method", "fit-specular"),
-            ("method", "fit-surface"),
+            ("method", "fit-dielectric"),
             ("views", "1 view"),
             ("views", "all views"),
             ("resolution", "32 px"),
@@ -259,7 +259,8 @@ fn truth_fed_eval_matches_the_chained_one_for_networks_without_dependencies() {
 }
 
 #[test]
-fn the_error_budget_feeds_each_set_of_truth_pieces_and_scores_the_rest_against_the_estimate_as_it_is() {
+fn the_error_budget_feeds_each_set_of_truth_pieces_and_scores_the_rest_against_the_estimate_as_it_is(
+) {
     let tmp = tempfile::tempdir().unwrap();
     let scan = tmp.path().join("2mat");
     simulate(&scan, "2mat", "3");
@@ -278,7 +279,10 @@ fn the_error_budget_feeds_each_set_of_truth_pieces_and_scores_the_rest_against_t
         "--csv",
         csv_path.to_str().unwrap(),
     ]);
-    assert!(stdout.contains("error budget, all views, method fit"), "{stdout}");
+    assert!(
+        stdout.contains("error budget, all views, method fit"),
+        "{stdout}"
+    );
     assert!(stdout.contains("truth"), "{stdout}");
     let csv = std::fs::read_to_string(&csv_path).unwrap();
     let lines: Vec<&str> = csv.lines().collect();
@@ -288,11 +292,19 @@ fn the_error_budget_feeds_each_set_of_truth_pieces_and_scores_the_rest_against_t
     let rows: Vec<Vec<&str>> = lines[1..].iter().map(|l| fields(l)).collect();
     let cell = |oracle: &str, param: &str, c: &str| -> Option<f64> {
         rows.iter()
-            .find(|r| r[col("oracle")] == oracle && r[col("group")] == "ALL" && r[col("param")] == param)
+            .find(|r| {
+                r[col("oracle")] == oracle && r[col("group")] == "ALL" && r[col("param")] == param
+            })
             .map(|r| r[col(c)].parse().unwrap())
     };
     // The estimate as it is: every parameter, no change against itself.
-    for p in ["basecolor", "roughness", "metallic", "transmission", "subsurface"] {
+    for p in [
+        "basecolor",
+        "roughness",
+        "metallic",
+        "transmission",
+        "subsurface",
+    ] {
         let mad = cell("none", p, "mad").unwrap_or_else(|| panic!("no none row for {p}"));
         assert!((0.0..=1.0).contains(&mad), "{p}: {mad}");
         assert_eq!(cell("none", p, "delta_mad"), Some(0.0), "{p}");

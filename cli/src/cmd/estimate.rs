@@ -66,18 +66,21 @@ pub struct EstimateArgs {
     /// thesis's), fit (the physical fit to the photos under the calibrated
     /// lights), hybrid (the fit where the photos pin a value, the networks
     /// elsewhere), fit-metallic (metallic as hybrid answers it, basecolor
-    /// and roughness by their networks fed that metallic) or fit-specular
-    /// (the default: fit-metallic, then the fit's roughness where the
-    /// photos pin it).
+    /// and roughness by their networks fed that metallic), fit-specular
+    /// (fit-metallic, then the fit's roughness where the photos pin it) or
+    /// fit-dielectric (the default: fit-specular, then the fit's basecolor
+    /// on the materials it reads as opaque dielectrics).
     /// Transmission and subsurface come from their networks under every
     /// method.
     #[arg(long, default_value_t = Method::default())]
     pub method: Method,
     /// Which light the physical fit explains: total (lit minus ambient as
-    /// photographed) or direct (the global light, interreflections and
+    /// photographed), direct (the global light, interreflections and
     /// light scattered inside, measured with the projector's checker
     /// against its uniform field and subtracted; a scan without them is
-    /// fitted to its total light).
+    /// fitted to its total light) or material (the default: direct, but a
+    /// material whose measured global light is at least 30 % of its light
+    /// scatters inside and is fitted to its total light, as a dielectric).
     #[arg(long, value_name = "LIGHT", default_value_t = FitLight::default())]
     pub fit_light: FitLight,
     /// Where the networks run: cpu (the build's default CPU backend), flex,

@@ -56,14 +56,16 @@ pub struct EvalArgs {
     #[arg(long, value_name = "SIZE", num_args = 0..=1, default_missing_value = "256")]
     pub textures: Option<u32>,
     /// Who answers basecolor, roughness and metallic in the chained
-    /// estimate: networks, fit, hybrid, fit-metallic or fit-specular (see `matscan
-    /// estimate --help`; default: the estimator's, fit-specular). The
+    /// estimate: networks, fit, hybrid, fit-metallic, fit-specular or
+    /// fit-dielectric (see `matscan estimate --help`; default: the
+    /// estimator's, fit-dielectric). The
     /// truth-fed protocol measures the networks alone.
     #[arg(long)]
     pub method: Option<Method>,
-    /// Which light the physical fit explains: total (lit minus ambient) or
-    /// direct (the default: the global light measured with the
-    /// projector's checker subtracted; see `matscan estimate --help`).
+    /// Which light the physical fit explains: total (lit minus ambient),
+    /// direct (the global light measured with the projector's checker
+    /// subtracted) or material (the default: direct, total for a material
+    /// whose light is largely global; see `matscan estimate --help`).
     #[arg(long, value_name = "LIGHT")]
     pub fit_light: Option<FitLight>,
     /// The error budget: besides the estimate as it is, estimate again with

@@ -102,16 +102,19 @@ pub enum FitLight {
     Total,
     /// The direct light: the global light measured with the projector's
     /// checker ([`separation`]) subtracted from every view. A scan without
-    /// a checker capture is fitted to its total light, with a note. The
-    /// default: on `tune` it lowers metallic's MAD (0.140 to 0.130) and
-    /// roughness's (0.184 to 0.174) for 0.002 of basecolor's.
-    #[default]
+    /// a checker capture is fitted to its total light, with a note. On
+    /// `tune` it lowers metallic's MAD against the total light (0.140 to
+    /// 0.130) and roughness's (0.184 to 0.174) for 0.002 of basecolor's.
     Direct,
     /// The direct light, except for a material whose measured global light
     /// is at least [`SCATTERING_SHARE`] of its total light: light that
-    /// scatters inside before it leaves is part of what such a material's
-    /// basecolor reflects (a diffusion albedo), so it is fitted to its
-    /// total light.
+    /// scatters inside before it leaves is part of what such a material
+    /// reflects, so it is fitted to its total light, as a dielectric (a
+    /// metal scatters nothing inside). The default: on `tune`, under
+    /// `fit-specular`, it lowers roughness's MAD against the direct light
+    /// (0.174 to 0.159) and metallic's (0.130 to 0.125) for 0.001 of
+    /// basecolor's.
+    #[default]
     Material,
 }
 
@@ -255,26 +258,26 @@ impl Fitted {
 }
 
 impl Fitted {
-    /// Writes the fitted basecolor into `basecolor` at the pixels whose
-    /// material pinned both roughness and metallic (a surface lobe explains
-    /// its photos), leaving every other pixel as it was; returns the share
-    /// of the labelled pixels written.
-    pub fn pinned_basecolor_into(&self, basecolor: &mut [[f32; 3]]) -> f32 {
-        let (mut written, mut object) = (0usize, 0usize);
+    /// Writes the fitted basecolor into `basecolor` at the pixels of the
+    /// materials the fit reads as opaque dielectrics (dielectric, and no
+    /// light scattered inside), leaving every other pixel as it was;
+    /// returns the share of the fitted pixels written.
+    pub fn dielectric_basecolor_into(&self, basecolor: &mut [[f32; 3]]) -> f32 {
+        let (mut written, mut fitted) = (0usize, 0usize);
         for ((b, label), fit) in basecolor.iter_mut().zip(&self.labels).zip(&self.basecolor) {
             let Some(m) = label.and_then(|j| self.materials.get(j)) else {
                 continue;
             };
-            object += 1;
-            if m.roughness_pinned && m.metallic_pinned && fit.iter().all(|v| v.is_finite()) {
+            fitted += 1;
+            if m.metallic < 0.5 && !m.scattering && fit.iter().all(|v| v.is_finite()) {
                 *b = fit.map(|v| v.clamp(0.0, 1.0));
                 written += 1;
             }
         }
-        if object == 0 {
+        if fitted == 0 {
             0.0
         } else {
-            written as f32 / object as f32
+            written as f32 / fitted as f32
         }
     }
 }

@@ -381,15 +381,15 @@ fn given_materials_replace_the_split_and_keep_each_its_own_roughness() {
 }
 
 #[test]
-fn pinned_basecolor_replaces_only_the_pixels_of_materials_whose_lobe_is_pinned() {
-    let material = |roughness_pinned: bool, metallic_pinned: bool| MaterialFit {
+fn dielectric_basecolor_replaces_only_the_pixels_of_opaque_dielectric_materials() {
+    let material = |metallic: f32, scattering: bool| MaterialFit {
         pixels: 1,
         basecolor: [0.5; 3],
         roughness: 0.3,
-        metallic: 0.0,
-        roughness_pinned,
-        metallic_pinned,
-        scattering: false,
+        metallic,
+        roughness_pinned: true,
+        metallic_pinned: true,
+        scattering,
     };
     let fitted = Fitted {
         basecolor: vec![
@@ -398,18 +398,24 @@ fn pinned_basecolor_replaces_only_the_pixels_of_materials_whose_lobe_is_pinned()
             [0.9; 3],
             [f32::NAN; 3],
             [1.4, 0.2, 0.2],
+            [0.6; 3],
         ],
-        roughness: vec![0.3; 5],
-        metallic: vec![0.0; 5],
-        labels: vec![Some(0), Some(1), None, Some(0), Some(0)],
-        materials: vec![material(true, true), material(true, false)],
+        roughness: vec![0.3; 6],
+        metallic: vec![0.0; 6],
+        labels: vec![Some(0), Some(1), None, Some(0), Some(0), Some(2)],
+        materials: vec![
+            material(0.0, false),
+            material(1.0, false),
+            material(0.0, true),
+        ],
         constrained: Constrained::default(),
         notes: Vec::new(),
         seconds: 0.0,
     };
-    let mut basecolor = vec![[0.5f32; 3]; 5];
-    let share = fitted.pinned_basecolor_into(&mut basecolor);
-    // Pinned lobe; metallic unpinned; outside every material; NaN; clamped.
+    let mut basecolor = vec![[0.5f32; 3]; 6];
+    let share = fitted.dielectric_basecolor_into(&mut basecolor);
+    // Opaque dielectric; metal; outside every material; NaN; clamped;
+    // scattering.
     assert_eq!(
         basecolor,
         vec![
@@ -417,10 +423,11 @@ fn pinned_basecolor_replaces_only_the_pixels_of_materials_whose_lobe_is_pinned()
             [0.5; 3],
             [0.5; 3],
             [0.5; 3],
-            [1.0, 0.2, 0.2]
+            [1.0, 0.2, 0.2],
+            [0.5; 3]
         ]
     );
-    assert_eq!(share, 0.5);
+    assert_eq!(share, 0.4);
 }
 
 /// `observe`'s views of pixel `i` with `share` of each view's light global

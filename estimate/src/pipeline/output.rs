@@ -62,8 +62,10 @@ pub struct ParamResult {
     /// or `hybrid` (the fit where the photos pinned the value, the
     /// networks elsewhere); under `fit-metallic`, `hybrid` for metallic
     /// and `networks` for basecolor and roughness; under `fit-specular`,
-    /// `hybrid` for metallic and roughness and `networks` for basecolor; a
-    /// parameter whose `constrained` share is 0 is the networks' answer
+    /// `hybrid` for metallic and roughness and `networks` for basecolor;
+    /// under `fit-dielectric`, `hybrid` for all three (basecolor's
+    /// `constrained` share is then the share of the opaque dielectric
+    /// materials, whose basecolor the fit answered); a parameter whose `constrained` share is 0 is the networks' answer
     /// everywhere and says `networks` (but under `fit`, which never falls
     /// back).
     #[serde(default, skip_serializing_if = "Option::is_none")]

@@ -495,7 +495,7 @@ impl Pass<'_> {
                 pinned_roughness_over(&mut values, self.plan, &f);
             }
             if self.method.fit_basecolor_last() {
-                f.constrained.basecolor = pinned_basecolor_over(&mut values, self.plan, &f);
+                f.constrained.basecolor = dielectric_basecolor_over(&mut values, self.plan, &f);
             }
             fits.add(self.method, &f, self.bundle, inputs);
         }
@@ -645,11 +645,7 @@ fn fit_values(
     };
     let grey = vec![[0.5f32; 3]; n];
     let half = vec![0.5f32; n];
-    let fallback = matches!(
-        method,
-        Method::Hybrid | Method::FitMetallic | Method::FitSpecular
-    )
-    .then(|| Fallback {
+    let fallback = method.falls_back().then(|| Fallback {
         basecolor: values.basecolor.as_deref().unwrap_or(&grey),
         roughness: values
             .scalar
@@ -696,15 +692,15 @@ fn pinned_roughness_over(values: &mut Values, plan: &Plan, fitted: &Fitted) {
     }
 }
 
-/// Puts the fit's basecolor into `values` at the pixels whose material
-/// pinned its lobe (an estimated basecolor only); returns the share of the
-/// object it answered.
-fn pinned_basecolor_over(values: &mut Values, plan: &Plan, fitted: &Fitted) -> f32 {
+/// Puts the fit's basecolor into `values` at the pixels of the materials
+/// it reads as dielectric (an estimated basecolor only); returns the share
+/// of the object it answered.
+fn dielectric_basecolor_over(values: &mut Values, plan: &Plan, fitted: &Fitted) -> f32 {
     if *plan.decision(Param::Basecolor) != Decision::Estimate {
         return 0.0;
     }
     match values.basecolor.as_mut() {
-        Some(basecolor) => fitted.pinned_basecolor_into(basecolor),
+        Some(basecolor) => fitted.dielectric_basecolor_into(basecolor),
         None => 0.0,
     }
 }

@@ -65,7 +65,8 @@ pub enum Knob {
     /// networks (`matscan estimate --refine N`; 0 = networks only).
     Refine,
     /// Who answers basecolor, roughness and metallic (`matscan estimate
-    /// --method`): networks, fit, hybrid, fit-metallic, fit-specular.
+    /// --method`): networks, fit, hybrid, fit-metallic, fit-specular,
+    /// fit-dielectric.
     Method,
 }
 
