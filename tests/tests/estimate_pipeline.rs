@@ -588,7 +588,7 @@ fn fit_metallic_answers_metallic_by_the_fit_and_keeps_the_networks_chain_elsewhe
 }
 
 #[test]
-fn fit_metallic_and_fit_specular_without_light_intensities_keep_the_networks_answers() {
+fn the_falling_back_methods_without_light_intensities_keep_the_networks_answers() {
     let dir = tempfile::tempdir().unwrap();
     let scan = scan_copy(dir.path());
     // A rig without radiometric calibration: no light intensity anywhere.
@@ -601,7 +601,11 @@ fn fit_metallic_and_fit_specular_without_light_intensities_keep_the_networks_ans
     }
     std::fs::write(&path, manifest.to_toml()).unwrap();
     let networks = run_method(&scan, dir.path(), Method::Networks, "networks");
-    for method in [Method::FitMetallic, Method::FitSpecular] {
+    for method in [
+        Method::FitMetallic,
+        Method::FitSpecular,
+        Method::FitDielectric,
+    ] {
         let chosen = run_method(&scan, dir.path(), method, method.name());
         // Nothing is pinned, so every map equals the networks' own chain.
         let metallic = chosen.param(Param::Metallic).unwrap();

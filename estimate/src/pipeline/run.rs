@@ -541,16 +541,7 @@ impl Pass<'_> {
         values: &mut Values,
         inputs: &SceneInputs,
     ) -> Result<Fitted, EstimateError> {
-        fit_values(
-            values,
-            self.plan,
-            self.bundle,
-            self.calibration,
-            inputs,
-            self.method,
-            self.fit,
-            self.truth_labels,
-        )
+        fit_values(self, values, inputs)
     }
 }
 
@@ -618,15 +609,19 @@ impl FitTally {
 /// with the physical fit's (given and skipped values are held, and the
 /// fit solves basecolor under them).
 fn fit_values(
+    pass: &Pass<'_>,
     values: &mut Values,
-    plan: &Plan,
-    bundle: &Bundle,
-    calibration: &ScanCalibration,
     inputs: &SceneInputs,
-    method: Method,
-    options: &FitOptions,
-    labels: Option<&[Option<usize>]>,
 ) -> Result<Fitted, EstimateError> {
+    let Pass {
+        plan,
+        bundle,
+        calibration,
+        method,
+        fit: options,
+        truth_labels: labels,
+        ..
+    } = *pass;
     let n = inputs.pixels();
     let estimated = |k: Param| *plan.decision(k) == Decision::Estimate;
     let zeros = vec![0.0f32; n];
