@@ -310,10 +310,10 @@ fn the_error_budget_feeds_each_set_of_truth_pieces_and_scores_the_rest_against_t
         assert_eq!(cell("none", p, "delta_mad"), Some(0.0), "{p}");
     }
     // Fed pieces are not scored; the rest are, with their change.
-    assert_eq!(cell("roughness,metallic", "roughness", "mad"), None);
-    assert_eq!(cell("roughness,metallic", "metallic", "mad"), None);
-    let fed = cell("roughness,metallic", "basecolor", "mad").unwrap();
-    let delta = cell("roughness,metallic", "basecolor", "delta_mad").unwrap();
+    assert_eq!(cell("roughness+metallic", "roughness", "mad"), None);
+    assert_eq!(cell("roughness+metallic", "metallic", "mad"), None);
+    let fed = cell("roughness+metallic", "basecolor", "mad").unwrap();
+    let delta = cell("roughness+metallic", "basecolor", "delta_mad").unwrap();
     let none = cell("none", "basecolor", "mad").unwrap();
     assert!((fed - none - delta).abs() < 1e-3, "{fed} {none} {delta}");
     assert!(cell("segmentation", "roughness", "mad").is_some());

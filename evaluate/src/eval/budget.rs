@@ -23,8 +23,9 @@ use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-/// Header of the budget's CSV: one row per view count, oracle set, group
-/// and parameter; `delta_mad` is the change against the set `none`.
+/// Header of the budget's CSV: one row per view count, oracle set (its
+/// pieces joined by `+`), group and parameter; `delta_mad` is the change
+/// against the set `none`.
 pub const BUDGET_CSV_HEADER: &str = "views,oracle,group,param,scans,mad,delta_mad,median_seconds";
 
 /// The budget's printed table and CSV.
@@ -156,7 +157,7 @@ pub fn run_budget(
                     let _ = writeln!(
                         csv,
                         "{count},{},{},{},{},{},{},{}",
-                        csv_field(&set.to_string()),
+                        csv_field(&set.to_string().replace(',', "+")),
                         csv_field(group),
                         kind.name(),
                         row.scenes,
