@@ -80,7 +80,7 @@ pub struct EstimateArgs {
     /// against its uniform field and subtracted; a scan without them is
     /// fitted to its total light) or material (the default: direct, but a
     /// material whose measured global light is at least 30 % of its light
-    /// scatters inside and is fitted to its total light, as a dielectric).
+    /// scatters inside and is fitted to its total light).
     #[arg(long, value_name = "LIGHT", default_value_t = FitLight::default())]
     pub fit_light: FitLight,
     /// Where the networks run: cpu (the build's default CPU backend), flex,

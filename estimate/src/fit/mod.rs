@@ -109,11 +109,12 @@ pub enum FitLight {
     /// The direct light, except for a material whose measured global light
     /// is at least [`SCATTERING_SHARE`] of its total light: light that
     /// scatters inside before it leaves is part of what such a material
-    /// reflects, so it is fitted to its total light, as a dielectric (a
-    /// metal scatters nothing inside). The default: on `tune`, under
-    /// `fit-specular`, it lowers roughness's MAD against the direct light
-    /// (0.174 to 0.159) and metallic's (0.130 to 0.125) for 0.001 of
-    /// basecolor's.
+    /// reflects, so it is fitted to its total light, which also decides its
+    /// metallic (a large share is also what a concave metal reflects onto
+    /// itself, so it does not rule a metal out). The default: on `tune`,
+    /// under `fit-dielectric`, it lowers basecolor's MAD against the direct
+    /// light by a third, and metallic's from 0.130 to 0.122
+    /// (docs/results.md).
     #[default]
     Material,
 }
@@ -213,7 +214,7 @@ pub struct MaterialFit {
     /// pinned it as metal and the total light did not, the signature of a
     /// material that scatters light inside or through it; or, under
     /// [`FitLight::Material`], its measured global share was at least
-    /// [`SCATTERING_SHARE`] (it is then dielectric).
+    /// [`SCATTERING_SHARE`].
     #[serde(default)]
     pub scattering: bool,
 }
@@ -566,7 +567,6 @@ where
     // A material's roughness and metallic: the grid point with the least
     // cost summed over its pixels, each with its own best basecolor.
     let points = grid.len() * METALLIC_GRID.len();
-    let dielectric = vec![0.0f32; n];
     let mut materials = Vec::with_capacity(parts.count);
     for j in 0..parts.count {
         let list: Vec<usize> = (0..n).filter(|&i| parts.labels[i] == Some(j)).collect();
@@ -595,17 +595,10 @@ where
                     || vec![0.0f64; points],
                     |a, b| a.iter().zip(&b).map(|(x, y)| x + y).collect(),
                 );
-            // Light that scatters inside is no metal's: the global share
-            // pins such a material dielectric.
-            let known_total = if scatters {
-                Known {
-                    metallic: Some(&dielectric),
-                    ..known
-                }
-            } else {
-                known
-            };
-            let in_total = choose(&by_total, &grid, &list, known_total, fallback, options);
+            // A large global share is light scattered inside or, on a
+            // concave metal, light it reflects onto itself: the total
+            // light's own fit decides metallic.
+            let in_total = choose(&by_total, &grid, &list, known, fallback, options);
             if scatters || !pinned_metal(&in_total) {
                 material = MaterialFit {
                     scattering: true,

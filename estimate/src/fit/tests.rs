@@ -448,7 +448,7 @@ fn observe_scattering(
 }
 
 #[test]
-fn a_material_whose_light_is_largely_global_is_fitted_to_its_total_light_as_a_dielectric() {
+fn a_material_whose_light_is_largely_global_is_fitted_to_its_total_light() {
     let side = 40;
     let truth = |_: usize| Params {
         basecolor: [0.6, 0.45, 0.3],
