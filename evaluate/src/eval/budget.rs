@@ -14,10 +14,9 @@ use super::report::views_label;
 use super::tables::{csv_field, csv_number, group_rows, GroupRow, SceneResult, ALL_GROUP};
 use crate::scans::{usable_views, view_filter};
 use burn::tensor::Device;
-use matscan_estimate::fit::FitOptions;
 use matscan_estimate::pipeline::oracle::Oracles;
 use matscan_estimate::pipeline::run::PreparedScan;
-use matscan_estimate::{EstimateOptions, ModelSource, References, PIPELINE_ORDER};
+use matscan_estimate::{EstimateOptions, PIPELINE_ORDER};
 use matscan_scan::Param;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -46,10 +45,6 @@ pub fn run_budget(
     let count = args.views.last().copied().unwrap_or(0);
     let mut sets = vec![Oracles::default()];
     sets.extend(args.oracles.iter().filter(|s| !s.is_empty()).cloned());
-    let models = || match &args.weights {
-        Some(dir) => ModelSource::Dir(dir.clone()),
-        None => ModelSource::Embedded,
-    };
     let calib = EstimateOptions::default().calib;
     let mut results: Vec<Vec<SceneResult>> = sets.iter().map(|_| Vec::new()).collect();
     let mut failures = Vec::new();
@@ -69,21 +64,16 @@ pub fn run_budget(
         let mut scene = Vec::with_capacity(sets.len());
         for (k, set) in sets.iter().enumerate() {
             let options = EstimateOptions {
-                out: Some(scratch.join(format!("budget-{k}-{i}"))),
-                filter: view_filter(count, all.as_deref()),
-                references: References::First,
                 calib,
-                method: args.method.unwrap_or_default(),
-                fit: FitOptions {
-                    light: args.fit_light.unwrap_or_default(),
-                    ..FitOptions::default()
-                },
                 oracle: set.clone(),
-                ..EstimateOptions::default()
+                ..args.estimate_options(
+                    scratch.join(format!("budget-{k}-{i}")),
+                    view_filter(count, all.as_deref()),
+                )
             };
             match evaluate_prepared(
                 &prepared,
-                models(),
+                args.models(),
                 &options,
                 device,
                 args.group_by,

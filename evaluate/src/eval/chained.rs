@@ -8,7 +8,6 @@ use super::tables::{geometry_family, scene_group, GroupBy, SceneResult};
 use crate::scans::{usable_views, view_filter};
 use anyhow::{Context, Result};
 use burn::tensor::Device;
-use matscan_estimate::fit::FitOptions;
 use matscan_estimate::pipeline::metrics::error_metrics;
 use matscan_estimate::pipeline::run::{estimate_prepared, PreparedScan};
 use matscan_estimate::{EstimateOptions, ModelSource, References};
@@ -105,10 +104,6 @@ pub(super) fn chained_configurations(
     scratch: &Path,
     device: &Device,
 ) -> Vec<Configuration> {
-    let models = || match &args.weights {
-        Some(dir) => ModelSource::Dir(dir.clone()),
-        None => ModelSource::Embedded,
-    };
     let mut out: Vec<Configuration> = args
         .views
         .iter()
@@ -136,8 +131,6 @@ pub(super) fn chained_configurations(
         };
         for (c, &count) in out.iter_mut().zip(&args.views) {
             let options = EstimateOptions {
-                out: Some(scratch.join(format!("{count}-{i}"))),
-                filter: view_filter(count, all.as_deref()),
                 // Texture scores bake what `matscan export` bakes: maps of
                 // every position (one network pass per position).
                 references: if args.textures.is_some() {
@@ -146,17 +139,15 @@ pub(super) fn chained_configurations(
                     References::First
                 },
                 calib,
-                method: args.method.unwrap_or_default(),
-                fit: FitOptions {
-                    light: args.fit_light.unwrap_or_default(),
-                    ..FitOptions::default()
-                },
-                ..EstimateOptions::default()
+                ..args.estimate_options(
+                    scratch.join(format!("{count}-{i}")),
+                    view_filter(count, all.as_deref()),
+                )
             };
             let textures = &mut c.textures;
             match evaluate_prepared(
                 &prepared,
-                models(),
+                args.models(),
                 &options,
                 device,
                 args.group_by,

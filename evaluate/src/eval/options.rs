@@ -39,6 +39,36 @@ pub struct EvalOptions {
     pub oracles: Vec<matscan_estimate::pipeline::oracle::Oracles>,
 }
 
+impl EvalOptions {
+    /// Where the networks' weights come from.
+    pub fn models(&self) -> matscan_estimate::ModelSource {
+        match &self.weights {
+            Some(dir) => matscan_estimate::ModelSource::Dir(dir.clone()),
+            None => matscan_estimate::ModelSource::Embedded,
+        }
+    }
+
+    /// The chained estimate's options: this evaluation's method and fit
+    /// light, the default calibration, maps of the reference position
+    /// only, written to `out`.
+    pub fn estimate_options(
+        &self,
+        out: PathBuf,
+        filter: matscan_estimate::ViewFilter,
+    ) -> matscan_estimate::EstimateOptions {
+        matscan_estimate::EstimateOptions {
+            out: Some(out),
+            filter,
+            method: self.method.unwrap_or_default(),
+            fit: matscan_estimate::fit::FitOptions {
+                light: self.fit_light.unwrap_or_default(),
+                ..matscan_estimate::fit::FitOptions::default()
+            },
+            ..matscan_estimate::EstimateOptions::default()
+        }
+    }
+}
+
 /// The printed tables and the CSV of one evaluation.
 #[derive(Clone, Debug, PartialEq)]
 pub struct EvalReport {
