@@ -513,3 +513,135 @@ fn a_material_with_little_global_light_keeps_its_direct_light_under_the_material
     );
     assert!(fitted.materials.iter().all(|m| !m.scattering));
 }
+
+#[test]
+fn degenerate_materials_and_views_give_finite_values_under_every_light_rule() {
+    let side = 24;
+    let n = side * side;
+    let mask: Vec<bool> = (0..n).map(|i| normal(i, side).is_some()).collect();
+    let black_metal = |_: usize| Params {
+        basecolor: [0.0; 3],
+        roughness: 0.3,
+        metallic: 1.0,
+    };
+    let mirror_metal = |_: usize| Params {
+        basecolor: [0.9, 0.6, 0.3],
+        roughness: 0.02,
+        metallic: 1.0,
+    };
+    type Observe<'a> = Box<dyn Fn(usize) -> Vec<Sample> + Sync + 'a>;
+    let cases: Vec<(&str, Observe)> = vec![
+        ("black metal", Box::new(|i| observe(i, side, &black_metal))),
+        (
+            "a mirror metal whose highlights no view sees",
+            Box::new(|i| {
+                // Only the side lights, whose mirror directions miss the
+                // camera on a dome seen from above.
+                observe(i, side, &mirror_metal)
+                    .into_iter()
+                    .filter(|s| s.observation.wi.z < 0.95)
+                    .map(|mut s| {
+                        s.observation.observed = [0.0; 3];
+                        s
+                    })
+                    .collect()
+            }),
+        ),
+        (
+            "saturated highlights",
+            Box::new(|i| {
+                observe(i, side, &|_| GOLD)
+                    .into_iter()
+                    .map(|mut s| {
+                        s.clipped = [true; 3];
+                        s.observation.observed = [0.05; 3];
+                        s
+                    })
+                    .collect()
+            }),
+        ),
+        (
+            "one view",
+            Box::new(|i| {
+                observe(i, side, &|_| RED_PLASTIC)
+                    .into_iter()
+                    .take(1)
+                    .collect()
+            }),
+        ),
+        (
+            "global light above the photo",
+            Box::new(|i| observe_scattering(i, side, &|_| RED_PLASTIC, 3.0)),
+        ),
+        (
+            "no light",
+            Box::new(|i| {
+                observe(i, side, &|_| RED_PLASTIC)
+                    .into_iter()
+                    .map(|mut s| {
+                        s.observation.light = [0.0; 3];
+                        s
+                    })
+                    .collect()
+            }),
+        ),
+    ];
+    // A one-pixel material among the given ones.
+    let first = mask.iter().position(|&m| m).unwrap();
+    let labels: Vec<Option<usize>> = (0..n)
+        .map(|i| mask[i].then_some(usize::from(i == first)))
+        .collect();
+    for (what, observe_case) in &cases {
+        for light in FitLight::ALL {
+            for given in [None, Some(labels.as_slice())] {
+                let fitted = fit_pixels(
+                    &mask,
+                    side,
+                    observe_case,
+                    &vec![0.0; n],
+                    Known {
+                        labels: given,
+                        ..Known::default()
+                    },
+                    None,
+                    &FitOptions {
+                        light,
+                        ..FitOptions::default()
+                    },
+                );
+                let label = format!("{what}, {light} light, given labels {}", given.is_some());
+                for i in (0..n).filter(|&i| mask[i]) {
+                    assert!(
+                        fitted.basecolor[i].iter().all(|v| v.is_finite()),
+                        "{label}: basecolor {:?}",
+                        fitted.basecolor[i]
+                    );
+                    assert!(
+                        (0.02..=1.0).contains(&fitted.roughness[i]),
+                        "{label}: roughness {}",
+                        fitted.roughness[i]
+                    );
+                    assert!(
+                        fitted.metallic[i] == 0.0 || fitted.metallic[i] == 1.0,
+                        "{label}: metallic {}",
+                        fitted.metallic[i]
+                    );
+                }
+                let mut basecolor = vec![[0.5f32; 3]; n];
+                let share = fitted.dielectric_basecolor_into(&mut basecolor);
+                assert!((0.0..=1.0).contains(&share), "{label}: {share}");
+                assert!(
+                    basecolor.iter().flatten().all(|v| (0.0..=1.0).contains(v)),
+                    "{label}"
+                );
+                let c = fitted.constrained;
+                assert!(
+                    [c.basecolor, c.roughness, c.metallic]
+                        .iter()
+                        .all(|s| (0.0..=1.0).contains(s)),
+                    "{label}: {c:?}"
+                );
+            }
+        }
+    }
+}
