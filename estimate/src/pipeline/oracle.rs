@@ -117,10 +117,7 @@ impl Oracles {
                 if path.is_file() {
                     Ok((param, Given::Map(path)))
                 } else {
-                    Err(OracleError::NoTruth {
-                        scan: bundle.root.display().to_string(),
-                        map: format!("{}", map.relative_path(reference).display()),
-                    })
+                    Err(OracleError::no_truth(bundle, &map, reference))
                 }
             })
             .collect()
@@ -188,6 +185,15 @@ pub enum OracleError {
     Scan(#[from] ScanError),
 }
 
+impl OracleError {
+    fn no_truth(bundle: &Bundle, map: &TruthMap, reference: &str) -> OracleError {
+        OracleError::NoTruth {
+            scan: bundle.root.display().to_string(),
+            map: map.relative_path(reference).display().to_string(),
+        }
+    }
+}
+
 /// The step in which roughness, transmission and subsurface count as one
 /// value for the truth's regions: finer than any difference the fit's
 /// roughness grid resolves between materials, coarse enough that the
@@ -205,21 +211,16 @@ pub fn truth_labels(bundle: &Bundle, reference: &str) -> Result<Vec<Option<usize
     let scalar = |param: Param| -> Result<Vec<f32>, OracleError> {
         match bundle.truth_param(reference, param)? {
             Some(MapValues::Scalar(r)) => Ok(r.data),
-            _ => Err(OracleError::NoTruth {
-                scan: bundle.root.display().to_string(),
-                map: format!(
-                    "{}",
-                    TruthMap::Param(param).relative_path(reference).display()
-                ),
-            }),
+            _ => Err(OracleError::no_truth(
+                bundle,
+                &TruthMap::Param(param),
+                reference,
+            )),
         }
     };
     let mask = bundle
         .truth_mask(reference)?
-        .ok_or_else(|| OracleError::NoTruth {
-            scan: bundle.root.display().to_string(),
-            map: format!("{}", TruthMap::Mask.relative_path(reference).display()),
-        })?
+        .ok_or_else(|| OracleError::no_truth(bundle, &TruthMap::Mask, reference))?
         .data;
     let roughness = scalar(Param::Roughness)?;
     let metallic = scalar(Param::Metallic)?;

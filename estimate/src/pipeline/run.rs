@@ -264,7 +264,6 @@ pub fn estimate_prepared(
     let mut given = options.given.clone();
     given.extend(options.oracle.given(bundle, &set.reference)?);
     let plan = Plan::new(options.only.as_deref(), &given, available)?;
-    let truth_labels = options.oracle.labels(bundle, &set.reference)?;
 
     let t = Instant::now();
     let kinds: Vec<Param> = plan.networks().collect();
@@ -281,7 +280,7 @@ pub fn estimate_prepared(
         refine: &options.refine,
         method: options.method,
         fit: &options.fit,
-        truth_labels: truth_labels.as_deref(),
+        oracle: &options.oracle,
         device,
     };
     let (first, mut runs, given_s) = pass.run(&inputs, &mut tally, &mut fits)?;
@@ -465,9 +464,9 @@ struct Pass<'a> {
     refine: &'a RefineOptions,
     method: Method,
     fit: &'a FitOptions,
-    /// The truth's materials in the reference image (the segmentation
-    /// oracle), which the fit then uses instead of its own.
-    truth_labels: Option<&'a [Option<usize>]>,
+    /// Truth fed in place of measurement: with the segmentation among its
+    /// pieces, the fit takes the truth's materials in each reference image.
+    oracle: &'a Oracles,
     device: &'a Device,
 }
 
@@ -619,9 +618,10 @@ fn fit_values(
         calibration,
         method,
         fit: options,
-        truth_labels: labels,
+        oracle,
         ..
     } = *pass;
+    let labels = oracle.labels(bundle, &inputs.reference)?;
     let n = inputs.pixels();
     let estimated = |k: Param| *plan.decision(k) == Decision::Estimate;
     let zeros = vec![0.0f32; n];
@@ -636,7 +636,7 @@ fn fit_values(
         metallic: (!estimated(Param::Metallic))
             .then(|| values.scalar.get(&Param::Metallic).map(Vec::as_slice))
             .flatten(),
-        labels,
+        labels: labels.as_deref(),
     };
     let grey = vec![[0.5f32; 3]; n];
     let half = vec![0.5f32; n];

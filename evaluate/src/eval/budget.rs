@@ -8,15 +8,13 @@
 //! under any set is left out of every set's rows (the rows compare the same
 //! scans), and reported.
 
-use super::chained::evaluate_prepared;
+use super::chained::{chained_configurations, Chained};
 use super::options::EvalOptions;
 use super::report::views_label;
 use super::tables::{csv_field, csv_number, group_rows, GroupRow, SceneResult, ALL_GROUP};
-use crate::scans::{usable_views, view_filter};
 use burn::tensor::Device;
 use matscan_estimate::pipeline::oracle::Oracles;
-use matscan_estimate::pipeline::run::PreparedScan;
-use matscan_estimate::{EstimateOptions, PIPELINE_ORDER};
+use matscan_estimate::PIPELINE_ORDER;
 use matscan_scan::Param;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -45,55 +43,39 @@ pub fn run_budget(
     let count = args.views.last().copied().unwrap_or(0);
     let mut sets = vec![Oracles::default()];
     sets.extend(args.oracles.iter().filter(|s| !s.is_empty()).cloned());
-    let calib = EstimateOptions::default().calib;
-    let mut results: Vec<Vec<SceneResult>> = sets.iter().map(|_| Vec::new()).collect();
-    let mut failures = Vec::new();
-    for (i, scan) in scans.iter().enumerate() {
-        let prepared = match PreparedScan::open(scan, &calib) {
-            Ok(p) => p,
-            Err(e) => {
-                failures.push(format!("{}: {e}", scan.display()));
-                continue;
-            }
-        };
-        let all = if count > 0 {
-            usable_views(&prepared)
-        } else {
-            None
-        };
-        let mut scene = Vec::with_capacity(sets.len());
-        for (k, set) in sets.iter().enumerate() {
-            let options = EstimateOptions {
-                calib,
-                oracle: set.clone(),
-                ..args.estimate_options(
-                    scratch.join(format!("budget-{k}-{i}")),
-                    view_filter(count, all.as_deref()),
-                )
-            };
-            match evaluate_prepared(
-                &prepared,
-                args.models(),
-                &options,
-                device,
-                args.group_by,
-                Some(baseline),
-                &mut |_, _, _| {},
-            ) {
-                Ok(r) => scene.push(r),
-                Err(e) => {
-                    failures.push(format!("oracle {set}: {e:#}"));
-                    break;
-                }
-            }
-        }
-        if scene.len() == sets.len() {
-            for (r, s) in results.iter_mut().zip(scene) {
-                r.push(s);
-            }
-        }
-    }
-    let _ = std::fs::remove_dir_all(scratch);
+    let runs: Vec<Chained> = sets
+        .iter()
+        .map(|oracle| Chained {
+            views: count,
+            oracle: oracle.clone(),
+        })
+        .collect();
+    let configurations = chained_configurations(args, &runs, scans, baseline, scratch, device);
+    let failures: Vec<String> = sets
+        .iter()
+        .zip(&configurations)
+        .flat_map(|(set, c)| c.failures.iter().map(move |f| format!("oracle {set}: {f}")))
+        .collect();
+    // The rows compare the same scans: those every set estimated.
+    let everywhere: Vec<PathBuf> = configurations
+        .iter()
+        .take(1)
+        .flat_map(|c| c.results.iter().map(|r| r.scan.clone()))
+        .filter(|scan| {
+            configurations
+                .iter()
+                .all(|c| c.results.iter().any(|r| &r.scan == scan))
+        })
+        .collect();
+    let results: Vec<Vec<SceneResult>> = configurations
+        .into_iter()
+        .map(|c| {
+            c.results
+                .into_iter()
+                .filter(|r| everywhere.contains(&r.scan))
+                .collect()
+        })
+        .collect();
     let rows: Vec<Vec<GroupRow>> = results.iter().map(|r| group_rows(r)).collect();
     let mut table = String::new();
     let _ = writeln!(

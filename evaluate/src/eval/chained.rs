@@ -9,6 +9,7 @@ use crate::scans::{usable_views, view_filter};
 use anyhow::{Context, Result};
 use burn::tensor::Device;
 use matscan_estimate::pipeline::metrics::error_metrics;
+use matscan_estimate::pipeline::oracle::Oracles;
 use matscan_estimate::pipeline::run::{estimate_prepared, PreparedScan};
 use matscan_estimate::{EstimateOptions, ModelSource, References};
 use matscan_scan::Param;
@@ -94,22 +95,27 @@ pub fn evaluate_prepared(
     Ok(result)
 }
 
-/// Every configuration of `views` through the chained estimate; each scan
+/// One configuration of the chained estimate: the first `views` views of
+/// each scan (0: every view), fed `oracle`'s pieces of the truth.
+#[derive(Clone, Debug)]
+pub(super) struct Chained {
+    pub views: usize,
+    pub oracle: Oracles,
+}
+
+/// Every configuration of `runs` through the chained estimate; each scan
 /// is opened and calibrated once for listing its views and for every
 /// configuration.
 pub(super) fn chained_configurations(
     args: &EvalOptions,
+    runs: &[Chained],
     scans: &[PathBuf],
     baseline: &BTreeMap<Param, f64>,
     scratch: &Path,
     device: &Device,
 ) -> Vec<Configuration> {
-    let mut out: Vec<Configuration> = args
-        .views
-        .iter()
-        .map(|_| Configuration::default())
-        .collect();
-    let lists_views = args.views.iter().any(|&count| count > 0);
+    let mut out: Vec<Configuration> = runs.iter().map(|_| Configuration::default()).collect();
+    let lists_views = runs.iter().any(|r| r.views > 0);
     // Every configuration estimates with these calibration options, so the
     // one calibration serves them all.
     let calib = EstimateOptions::default().calib;
@@ -129,7 +135,7 @@ pub(super) fn chained_configurations(
         } else {
             None
         };
-        for (c, &count) in out.iter_mut().zip(&args.views) {
+        for (k, (c, run)) in out.iter_mut().zip(runs).enumerate() {
             let options = EstimateOptions {
                 // Texture scores bake what `matscan export` bakes: maps of
                 // every position (one network pass per position).
@@ -139,9 +145,10 @@ pub(super) fn chained_configurations(
                     References::First
                 },
                 calib,
+                oracle: run.oracle.clone(),
                 ..args.estimate_options(
-                    scratch.join(format!("{count}-{i}")),
-                    view_filter(count, all.as_deref()),
+                    scratch.join(format!("{k}-{i}")),
+                    view_filter(run.views, all.as_deref()),
                 )
             };
             let textures = &mut c.textures;

@@ -40,8 +40,9 @@ pub mod truth;
 use crate::scans::{collect_scans, scans_in};
 use anyhow::{bail, Context, Result};
 use burn::tensor::Device;
-use chained::chained_configurations;
+use chained::{chained_configurations, Chained};
 use matscan_estimate::net::weights::EMBEDDED;
+use matscan_estimate::pipeline::oracle::Oracles;
 use matscan_estimate::{cpu_device, Models};
 use matscan_scan::Param;
 pub use options::{DependencySource, EvalOptions, EvalReport};
@@ -138,7 +139,15 @@ pub fn run(args: &EvalOptions) -> Result<EvalReport> {
     }
     let configurations = match args.dependencies {
         DependencySource::Estimated => {
-            chained_configurations(args, &scans, &baseline, &scratch, &device)
+            let runs: Vec<Chained> = args
+                .views
+                .iter()
+                .map(|&views| Chained {
+                    views,
+                    oracle: Oracles::default(),
+                })
+                .collect();
+            chained_configurations(args, &runs, &scans, &baseline, &scratch, &device)
         }
         DependencySource::Truth => {
             let models = match &args.weights {
