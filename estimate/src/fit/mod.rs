@@ -20,6 +20,10 @@
 //! 4. Basecolor per pixel in closed form at its material's roughness and
 //!    metallic.
 //!
+//! The backlit photo ([`backlight`]) says per material whether any light
+//! passes through it: one that passes light is fitted as a dielectric,
+//! one that passes none without transmission.
+//!
 //! What the photos cannot pin is reported, not invented: a material's
 //! roughness is pinned when its cost curve over roughness has a clear
 //! minimum, metallic when one choice explains the photos clearly better,
@@ -27,12 +31,14 @@
 //! [`Fallback`] is given (the networks' answer), unpinned values come
 //! from it.
 //!
-//! Transmission enters as a fixed input (the caller's map); subsurface is
-//! rendered as Burley diffuse by the model, as in the refinement.
+//! Transmission enters as a fixed input (the caller's map, 0 where the
+//! backlight shows no light passing); subsurface is rendered as Burley
+//! diffuse by the model, as in the refinement.
 //!
 //! Boundaries: no file I/O and no networks; the pipeline hands in the
 //! scan's inputs and writes what comes back.
 
+pub mod backlight;
 pub mod linear;
 pub mod materials;
 pub mod separation;
@@ -43,12 +49,13 @@ use crate::refine::observe::{
     calibrated_lighting, light_exposure, point_light, seen, ViewLighting,
 };
 use crate::refine::RefineError;
+use backlight::{measure_backlight, Backlight, BacklightOptions, MaterialBacklight, Passage};
 use linear::{
     footprint_alpha2, responses, solve, solve_pulled, LinearFit, Noise, Pull, Response, Sample,
 };
 use materials::{feature, split, Feature, Split, SplitOptions};
 use matscan_calib::ScanCalibration;
-use matscan_scan::Bundle;
+use matscan_scan::{Bundle, Param};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::collections::hash_map::{Entry, HashMap};
@@ -92,6 +99,9 @@ pub struct FitOptions {
     pub basecolor_pull: f64,
     /// Which light the surface is fitted to.
     pub light: FitLight,
+    /// Whether light passes through each material, read from the backlit
+    /// photo ([`backlight`]); `None` leaves it unread.
+    pub backlight: Option<BacklightOptions>,
 }
 
 /// Which part of the photos' light the surface BSDF is fitted to.
@@ -172,6 +182,7 @@ impl Default for FitOptions {
             island_radius: 2,
             basecolor_pull: 2.0,
             light: FitLight::default(),
+            backlight: Some(BacklightOptions::default()),
         }
     }
 }
@@ -185,9 +196,9 @@ pub struct Fallback<'a> {
     pub metallic: &'a [f32],
 }
 
-/// Values the fit must not change (given by the user, or skipped), per
-/// reference pixel: a material takes their median, and basecolor is solved
-/// under it.
+/// What the fit is told rather than finds. Values it must not change
+/// (given by the user, or skipped), per reference pixel: a material takes
+/// their median, and basecolor is solved under it.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Known<'a> {
     pub roughness: Option<&'a [f32]>,
@@ -195,6 +206,10 @@ pub struct Known<'a> {
     /// The materials, per reference pixel, in place of the fit's own split
     /// (the error budget's segmentation oracle).
     pub labels: Option<&'a [Option<usize>]>,
+    /// The backlight's measurement of the reference image: a material
+    /// that passes light is fitted as a dielectric, one that passes none
+    /// is fitted without transmission.
+    pub backlight: Option<&'a Backlight>,
 }
 
 /// What the fit found of one material.
@@ -217,6 +232,44 @@ pub struct MaterialFit {
     /// [`SCATTERING_SHARE`].
     #[serde(default)]
     pub scattering: bool,
+    /// What the backlight showed of it; `None` where unread (no backlit
+    /// photo, too few facing pixels).
+    #[serde(default)]
+    pub backlight: Option<MaterialBacklight>,
+    /// The share of its lit-minus-ambient light that is global, where the
+    /// checker separated it (under [`FitLight::Material`]).
+    #[serde(default)]
+    pub global_share: Option<f32>,
+}
+
+impl MaterialFit {
+    /// Whether the backlight showed light passing through it.
+    pub fn passes_light(&self) -> bool {
+        self.backlight.is_some_and(|b| b.passage == Passage::Passes)
+    }
+
+    /// Whether the backlight showed no light passing through it.
+    pub fn blocks_light(&self) -> bool {
+        self.backlight
+            .is_some_and(|b| b.passage == Passage::Blocked)
+    }
+
+    /// Whether the photos show the material has no `kind` (transmission
+    /// or subsurface): a dielectric the backlight shows passing no light
+    /// has neither transmission nor light scattered through it; one whose
+    /// measured global share is below [`SCATTERING_SHARE`] scatters no
+    /// light inside. A metal hides both (their weights are zero in it).
+    pub fn lacks(&self, kind: Param) -> bool {
+        let scatters_none = self
+            .global_share
+            .is_some_and(|s| f64::from(s) < SCATTERING_SHARE);
+        self.metallic < 0.5
+            && match kind {
+                Param::Transmission => self.blocks_light(),
+                Param::Subsurface => self.blocks_light() || scatters_none,
+                _ => false,
+            }
+    }
 }
 
 /// Per parameter, the share of the object's pixels whose value the photos
@@ -226,6 +279,12 @@ pub struct Constrained {
     pub basecolor: f32,
     pub roughness: f32,
     pub metallic: f32,
+    /// Transmission and subsurface: the share set to 0 where the photos
+    /// show the material lacks them (see [`Fitted::absent_into`]).
+    #[serde(default)]
+    pub transmission: f32,
+    #[serde(default)]
+    pub subsurface: f32,
 }
 
 /// The fit of one reference image.
@@ -259,9 +318,33 @@ impl Fitted {
 }
 
 impl Fitted {
+    /// Writes 0 into `map` of `kind` (transmission or subsurface) at the
+    /// pixels of the materials the photos show lack it
+    /// ([`MaterialFit::lacks`]), leaving every other pixel as it was;
+    /// returns the share of the fitted pixels written.
+    pub fn absent_into(&self, kind: Param, map: &mut [f32]) -> f32 {
+        let (mut written, mut fitted) = (0usize, 0usize);
+        for (v, label) in map.iter_mut().zip(&self.labels) {
+            let Some(m) = label.and_then(|j| self.materials.get(j)) else {
+                continue;
+            };
+            fitted += 1;
+            if m.lacks(kind) {
+                *v = 0.0;
+                written += 1;
+            }
+        }
+        if fitted == 0 {
+            0.0
+        } else {
+            written as f32 / fitted as f32
+        }
+    }
+
     /// Writes the fitted basecolor into `basecolor` at the pixels of the
-    /// materials the fit reads as opaque dielectrics (dielectric, and no
-    /// light scattered inside), leaving every other pixel as it was;
+    /// materials the fit reads as opaque dielectrics (dielectric, no light
+    /// scattered inside, none seen through), leaving every other pixel as
+    /// it was;
     /// returns the share of the fitted pixels written.
     pub fn dielectric_basecolor_into(&self, basecolor: &mut [[f32; 3]]) -> f32 {
         let (mut written, mut fitted) = (0usize, 0usize);
@@ -270,7 +353,8 @@ impl Fitted {
                 continue;
             };
             fitted += 1;
-            if m.metallic < 0.5 && !m.scattering && fit.iter().all(|v| v.is_finite()) {
+            let opaque = !m.scattering && !m.passes_light();
+            if m.metallic < 0.5 && opaque && fit.iter().all(|v| v.is_finite()) {
                 *b = fit.map(|v| v.clamp(0.0, 1.0));
                 written += 1;
             }
@@ -324,6 +408,22 @@ pub fn fit_scene(
     if options.light != FitLight::Total {
         subtract_global(bundle, calibration, inputs, &mut lighting, &mut notes)?;
     }
+    let backlight = match (&options.backlight, known.backlight) {
+        (Some(o), None) => match measure_backlight(inputs, o) {
+            Ok(b) => Some(b),
+            Err(why) => {
+                notes.push(format!(
+                    "{why}: whether light passes through the materials is not read"
+                ));
+                None
+            }
+        },
+        _ => None,
+    };
+    let known = Known {
+        backlight: known.backlight.or(backlight.as_ref()),
+        ..known
+    };
     let mask = &inputs.mask.data;
     let mut fitted = fit_pixels(
         mask,
@@ -473,9 +573,16 @@ where
     let t = Instant::now();
     let n = mask.len();
     let grid = roughness_grid();
-    let fixed_at = |i: usize| Fixed {
-        transmission: transmission.get(i).copied().unwrap_or(0.0),
+    // `opaque`: the pixel's material passes no light (the backlight), so
+    // it has no transmission whatever the caller's map says.
+    let fixed_at = |i: usize, opaque: bool| Fixed {
+        transmission: if opaque {
+            0.0
+        } else {
+            transmission.get(i).copied().unwrap_or(0.0)
+        },
     };
+    let transmits = |i: usize| transmission.get(i).is_some_and(|&t| t > 0.0);
     let total_light: Vec<Vec<Sample>> = (0..n)
         .into_par_iter()
         .map(|i| if mask[i] { observe(i) } else { Vec::new() })
@@ -495,11 +602,11 @@ where
     });
     let direct_at =
         |i: usize| -> &[Sample] { direct.as_ref().unwrap_or(&total_light)[i].as_slice() };
-    let volume_of = |i: usize, obs: &[Sample]| -> Option<Volume> {
+    let volume_of = |i: usize, obs: &[Sample], opaque: bool| -> Option<Volume> {
         if !mask[i] || obs.is_empty() {
             return None;
         }
-        let fixed = fixed_at(i);
+        let fixed = fixed_at(i, opaque);
         let points = grid.len() * METALLIC_GRID.len();
         let mut cost = Vec::with_capacity(points);
         let mut basecolor = Vec::with_capacity(points);
@@ -516,7 +623,7 @@ where
     };
     let volumes: Vec<Option<Volume>> = (0..n)
         .into_par_iter()
-        .map(|i| volume_of(i, direct_at(i)))
+        .map(|i| volume_of(i, direct_at(i), false))
         .collect();
 
     // Each pixel's apparent albedo (as a rough dielectric) places it among
@@ -570,16 +677,36 @@ where
     let mut materials = Vec::with_capacity(parts.count);
     for j in 0..parts.count {
         let list: Vec<usize> = (0..n).filter(|&i| parts.labels[i] == Some(j)).collect();
+        let reading = known
+            .backlight
+            .zip(options.backlight.as_ref())
+            .and_then(|(b, o)| b.material(&list, o));
+        let opaque = reading.is_some_and(|r| r.passage == Passage::Blocked);
+        // A material that passes no light is costed without the
+        // transmission the caller's map gave its pixels.
+        let recosted: HashMap<usize, Volume> = if opaque {
+            list.par_iter()
+                .filter(|&&i| transmits(i))
+                .filter_map(|&i| Some((i, volume_of(i, direct_at(i), true)?)))
+                .collect()
+        } else {
+            HashMap::new()
+        };
         let mut by_direct = vec![0.0f64; points];
         for &i in &list {
-            if let Some(v) = &volumes[i] {
+            if let Some(v) = recosted.get(&i).or(volumes[i].as_ref()) {
                 by_direct.iter_mut().zip(&v.cost).for_each(|(t, c)| *t += c);
             }
         }
-        let mut material = choose(&by_direct, &grid, &list, known, fallback, options);
-        let scatters = separated
-            && options.light == FitLight::Material
-            && global_share(&list, &total_light) >= SCATTERING_SHARE;
+        // Light through a material rules out a metal, which transmits
+        // nothing and scatters nothing inside.
+        let dielectric = reading.is_some_and(|r| r.passage == Passage::Passes);
+        let mut material = choose(
+            &by_direct, &grid, &list, known, dielectric, fallback, options,
+        );
+        let share = (separated && options.light == FitLight::Material)
+            .then(|| global_share(&list, &total_light));
+        let scatters = share.is_some_and(|s| s >= SCATTERING_SHARE);
         // A material whose direct light pins it as metal but whose total
         // light does not scatters light inside or through it: its direct
         // light is its specular lobe alone (a metal's signature), its
@@ -589,7 +716,7 @@ where
         if scatters || (separated && known.metallic.is_none() && pinned_metal(&material)) {
             let by_total = list
                 .par_iter()
-                .filter_map(|&i| volume_of(i, &total_light[i]))
+                .filter_map(|&i| volume_of(i, &total_light[i], opaque))
                 .map(|v| v.cost)
                 .reduce(
                     || vec![0.0f64; points],
@@ -598,7 +725,9 @@ where
             // A large global share is light scattered inside or, on a
             // concave metal, light it reflects onto itself: the total
             // light's own fit decides metallic.
-            let in_total = choose(&by_total, &grid, &list, known, fallback, options);
+            let in_total = choose(
+                &by_total, &grid, &list, known, dielectric, fallback, options,
+            );
             if scatters || !pinned_metal(&in_total) {
                 material = MaterialFit {
                     scattering: true,
@@ -606,6 +735,8 @@ where
                 };
             }
         }
+        material.backlight = reading;
+        material.global_share = share.map(|s| s as f32);
         materials.push(material);
     }
     let observed = |i: usize, j: usize| -> &[Sample] {
@@ -626,7 +757,7 @@ where
             let j = parts.labels[i]?;
             let m = &materials[j];
             let obs = observed(i, j);
-            let r = responses(obs, m.roughness, m.metallic, &fixed_at(i));
+            let r = responses(obs, m.roughness, m.metallic, &fixed_at(i, m.blocks_light()));
             let fit = solve(obs, &r, &options.noise);
             Some((r, fit))
         })
@@ -726,6 +857,8 @@ where
         basecolor: bc as f32 / object,
         roughness: rough as f32 / object,
         metallic: metal as f32 / object,
+        transmission: 0.0,
+        subsurface: 0.0,
     };
     let unfitted = mask.iter().filter(|&&m| m).count() - bc;
     if unfitted > 0 {
@@ -883,6 +1016,7 @@ fn choose(
     grid: &[f32],
     members: &[usize],
     known: Known<'_>,
+    dielectric: bool,
     fallback: Option<Fallback<'_>>,
     options: &FitOptions,
 ) -> MaterialFit {
@@ -902,7 +1036,8 @@ fn choose(
     let known_metallic = known
         .metallic
         .and_then(median)
-        .map(|m| usize::from(m >= 0.5));
+        .map(|m| usize::from(m >= 0.5))
+        .or(dielectric.then_some(0));
     let known_roughness = known.roughness.and_then(median);
     let row_of = |m: usize| &total[m * r..(m + 1) * r];
     let best_of = |m: usize| -> (usize, f64) {
@@ -949,6 +1084,8 @@ fn choose(
         roughness_pinned,
         metallic_pinned,
         scattering: false,
+        backlight: None,
+        global_share: None,
     }
 }
 

@@ -257,6 +257,7 @@ fn at_the_roughest_lobe_a_dielectric_call_is_kept_and_a_metal_call_is_left_to_th
         &grid,
         &members,
         Known::default(),
+        false,
         Some(fallback),
         &options,
     );
@@ -269,6 +270,7 @@ fn at_the_roughest_lobe_a_dielectric_call_is_kept_and_a_metal_call_is_left_to_th
         &grid,
         &members,
         Known::default(),
+        false,
         Some(fallback),
         &options,
     );
@@ -281,6 +283,7 @@ fn at_the_roughest_lobe_a_dielectric_call_is_kept_and_a_metal_call_is_left_to_th
         &grid,
         &members,
         Known::default(),
+        false,
         Some(Fallback {
             metallic: &network_dielectric,
             ..fallback
@@ -313,6 +316,8 @@ fn pinned_roughness_replaces_only_the_pixels_of_materials_that_pinned_it() {
         roughness_pinned: pinned,
         metallic_pinned: true,
         scattering: false,
+        backlight: None,
+        global_share: None,
     };
     let fitted = Fitted {
         basecolor: vec![[0.5; 3]; 4],
@@ -324,6 +329,7 @@ fn pinned_roughness_replaces_only_the_pixels_of_materials_that_pinned_it() {
             basecolor: 0.5,
             roughness: 0.5,
             metallic: 0.5,
+            ..Constrained::default()
         },
         notes: Vec::new(),
         seconds: 0.0,
@@ -390,6 +396,8 @@ fn dielectric_basecolor_replaces_only_the_pixels_of_opaque_dielectric_materials(
         roughness_pinned: true,
         metallic_pinned: true,
         scattering,
+        backlight: None,
+        global_share: None,
     };
     let fitted = Fitted {
         basecolor: vec![
@@ -644,4 +652,190 @@ fn degenerate_materials_and_views_give_finite_values_under_every_light_rule() {
             }
         }
     }
+}
+
+/// The backlight's reading: `share` of the panel's light seen through
+/// every pixel.
+fn through(n: usize, share: f32) -> backlight::Backlight {
+    backlight::Backlight {
+        share: vec![share; n],
+        panel: [1.5; 3],
+    }
+}
+
+#[test]
+fn a_material_that_passes_backlight_is_fitted_as_a_dielectric() {
+    // Gold's photos pin it as metal; light seen through it rules a metal
+    // out, whatever its lobe looks like.
+    let side = 32;
+    let n = side * side;
+    let mask: Vec<bool> = (0..n).map(|i| normal(i, side).is_some()).collect();
+    let fit = |share: Option<f32>| {
+        let b = share.map(|s| through(n, s));
+        fit_pixels(
+            &mask,
+            side,
+            |i| observe(i, side, &|_| GOLD),
+            &vec![0.0; n],
+            Known {
+                backlight: b.as_ref(),
+                ..Known::default()
+            },
+            None,
+            &FitOptions::default(),
+        )
+    };
+    let unread = fit(None);
+    assert!(unread
+        .materials
+        .iter()
+        .all(|m| m.metallic == 1.0 && m.backlight.is_none()));
+    let passing = fit(Some(0.1));
+    assert!(!passing.materials.is_empty());
+    for m in &passing.materials {
+        assert_eq!(m.metallic, 0.0, "{m:?}");
+        assert!(
+            m.metallic_pinned && m.passes_light() && !m.blocks_light(),
+            "{m:?}"
+        );
+        let reading = m.backlight.expect("read");
+        assert!((reading.share - 0.1).abs() < 1e-6 && reading.pixels == m.pixels);
+    }
+    assert!(passing
+        .metallic
+        .iter()
+        .zip(&mask)
+        .all(|(&v, &m)| !m || v == 0.0));
+    // A passing material's basecolor is left to the networks.
+    let mut basecolor = vec![[0.25f32; 3]; n];
+    assert_eq!(passing.dielectric_basecolor_into(&mut basecolor), 0.0);
+    assert!(basecolor.iter().all(|b| *b == [0.25; 3]));
+}
+
+#[test]
+fn a_dielectric_that_passes_no_backlight_is_fitted_without_transmission() {
+    // The caller's map says half the light passes through; the backlight
+    // shows none does. Fitted under the map the basecolor reads twice as
+    // bright; under the backlight it comes back, and the blocked material's
+    // transmission and subsurface are written 0.
+    let side = 32;
+    let n = side * side;
+    let mask: Vec<bool> = (0..n).map(|i| normal(i, side).is_some()).collect();
+    let fit = |share: Option<f32>| {
+        let b = share.map(|s| through(n, s));
+        fit_pixels(
+            &mask,
+            side,
+            |i| observe(i, side, &|_| RED_PLASTIC),
+            &vec![0.5; n],
+            Known {
+                backlight: b.as_ref(),
+                ..Known::default()
+            },
+            None,
+            &FitOptions::default(),
+        )
+    };
+    let object: Vec<usize> = (0..n).filter(|&i| mask[i]).collect();
+    let close = |f: &Fitted| {
+        object
+            .iter()
+            .filter(|&&i| {
+                (0..3).all(|c| (f.basecolor[i][c] - RED_PLASTIC.basecolor[c]).abs() < 0.03)
+            })
+            .count()
+    };
+    let unread = fit(None);
+    assert!(close(&unread) < object.len() / 10, "{}", close(&unread));
+    let blocked = fit(Some(0.0));
+    // Materials too small to be read (a few pixels at the rim) keep the
+    // caller's transmission; the rest are blocked dielectrics.
+    let read: Vec<&MaterialFit> = blocked
+        .materials
+        .iter()
+        .filter(|m| m.backlight.is_some())
+        .collect();
+    assert!(read.iter().map(|m| m.pixels).sum::<usize>() > object.len() * 9 / 10);
+    assert!(
+        read.iter().all(|m| m.blocks_light() && m.metallic == 0.0),
+        "{:?}",
+        blocked.materials
+    );
+    assert!(
+        close(&blocked) > object.len() * 95 / 100,
+        "{} of {}",
+        close(&blocked),
+        object.len()
+    );
+    let mut transmission = vec![0.7f32; n];
+    let share = blocked.absent_into(Param::Transmission, &mut transmission);
+    assert!(share > 0.9, "{share}");
+    let zeroed = object.iter().filter(|&&i| transmission[i] == 0.0).count();
+    assert_eq!(zeroed as f32, (share * object.len() as f32).round());
+    assert!((0..n).filter(|&i| !mask[i]).all(|i| transmission[i] == 0.7));
+    // Unread, nothing is written.
+    let mut untouched = vec![0.7f32; n];
+    assert_eq!(unread.absent_into(Param::Transmission, &mut untouched), 0.0);
+    assert!(untouched.iter().all(|&v| v == 0.7));
+}
+
+#[test]
+fn transmission_and_subsurface_are_absent_only_where_the_photos_show_it() {
+    let material =
+        |metallic: f32, passage: Option<backlight::Passage>, global: Option<f32>| MaterialFit {
+            pixels: 2,
+            basecolor: [0.5; 3],
+            roughness: 0.3,
+            metallic,
+            roughness_pinned: true,
+            metallic_pinned: true,
+            scattering: global.is_some_and(|g| f64::from(g) >= SCATTERING_SHARE),
+            backlight: passage.map(|passage| backlight::MaterialBacklight {
+                share: 0.0,
+                high: 0.0,
+                pixels: 2,
+                passage,
+            }),
+            global_share: global,
+        };
+    use backlight::Passage::{Blocked, Partly, Passes};
+    // A blocked metal (both hidden in it); a blocked dielectric (neither);
+    // a dielectric passing light with little global light (transmission
+    // unknown, no subsurface); one passing light that scatters it inside
+    // (both unknown); one partly passing, unseparated (both unknown).
+    let materials = vec![
+        material(1.0, Some(Blocked), Some(0.0)),
+        material(0.0, Some(Blocked), Some(0.5)),
+        material(0.0, Some(Passes), Some(0.05)),
+        material(0.0, Some(Passes), Some(0.8)),
+        material(0.0, Some(Partly), None),
+    ];
+    let labels: Vec<Option<usize>> = (0..10).map(|i| Some(i / 2)).collect();
+    let fitted = Fitted {
+        basecolor: vec![[0.5; 3]; 10],
+        roughness: vec![0.3; 10],
+        metallic: vec![0.0; 10],
+        labels,
+        materials,
+        constrained: Constrained::default(),
+        notes: Vec::new(),
+        seconds: 0.0,
+    };
+    let mut transmission = vec![0.4f32; 10];
+    assert_eq!(
+        fitted.absent_into(Param::Transmission, &mut transmission),
+        0.2
+    );
+    assert_eq!(
+        transmission,
+        vec![0.4, 0.4, 0.0, 0.0, 0.4, 0.4, 0.4, 0.4, 0.4, 0.4]
+    );
+    let mut subsurface = vec![0.4f32; 10];
+    assert_eq!(fitted.absent_into(Param::Subsurface, &mut subsurface), 0.4);
+    assert_eq!(
+        subsurface,
+        vec![0.4, 0.4, 0.0, 0.0, 0.0, 0.0, 0.4, 0.4, 0.4, 0.4]
+    );
+    let mut roughness = vec![0.4f32; 10];
+    assert_eq!(fitted.absent_into(Param::Roughness, &mut roughness), 0.0);
 }

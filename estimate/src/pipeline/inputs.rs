@@ -142,6 +142,12 @@ impl ViewPlanes {
         self.backlit.is_some()
     }
 
+    /// The position's backlit capture, in the reference image, ambient
+    /// exposure units; `None` where the position has none.
+    pub fn backlit(&self) -> Option<&[[f32; 3]]> {
+        self.backlit.as_deref()
+    }
+
     /// Whether the view's position has a checker capture.
     pub fn has_checker(&self) -> bool {
         self.checker.is_some()

@@ -1,7 +1,10 @@
 //! Which estimator answers basecolor, roughness and metallic.
 //!
-//! Transmission and subsurface come from their networks under every
-//! method: the point-light photos the fit explains say little about them.
+//! Transmission and subsurface come from their networks, except that
+//! under every fitting method they are 0 on the dielectric materials the
+//! backlight shows passing no light ([`crate::fit::backlight`]): the
+//! point-light photos the fit explains say little about them, and the
+//! backlit photo says only whether any light passes.
 
 use matscan_scan::Param;
 use serde::{Deserialize, Serialize};
@@ -126,16 +129,21 @@ impl Method {
     /// the method itself where the fit's answer stands, else the networks.
     pub fn answering(self, kind: Param) -> Method {
         match (self, kind) {
+            // Every fitting method reads the backlight: transmission and
+            // subsurface are 0 on the materials it shows lack them, the
+            // networks' elsewhere.
+            (Method::Networks | Method::Hybrid, Param::Transmission | Param::Subsurface) => {
+                Method::Networks
+            }
+            (_, Param::Transmission | Param::Subsurface) => Method::Hybrid,
             (Method::FitMetallic, Param::Metallic) => Method::Hybrid,
             (Method::FitMetallic, _) => Method::Networks,
             (Method::FitSpecular, Param::Metallic | Param::Roughness) => Method::Hybrid,
             (Method::FitSpecular, _) => Method::Networks,
-            (Method::FitDielectric, Param::Metallic | Param::Roughness | Param::Basecolor) => {
-                Method::Hybrid
-            }
-            (Method::FitDielectric, _) => Method::Networks,
-            (m, Param::Basecolor | Param::Roughness | Param::Metallic) => m,
-            _ => Method::Networks,
+            // Every other parameter of fit-dielectric is basecolor,
+            // roughness or metallic: the fit's where it pins them.
+            (Method::FitDielectric, _) => Method::Hybrid,
+            (m, _) => m,
         }
     }
 }
@@ -205,6 +213,20 @@ mod tests {
         assert_eq!(
             Method::FitDielectric.answering(Param::Basecolor),
             Method::Hybrid
+        );
+        for m in [
+            Method::Fit,
+            Method::FitMetallic,
+            Method::FitSpecular,
+            Method::FitDielectric,
+        ] {
+            for kind in [Param::Transmission, Param::Subsurface] {
+                assert_eq!(m.answering(kind), Method::Hybrid, "{m}: {kind}");
+            }
+        }
+        assert_eq!(
+            Method::Networks.answering(Param::Transmission),
+            Method::Networks
         );
         assert!(Method::FitDielectric.fit_roughness_last());
         assert!(!Method::FitSpecular.fit_basecolor_last());

@@ -490,6 +490,9 @@ impl Pass<'_> {
         };
         self.run_networks(after, inputs, &mut values, &mut runs)?;
         if let Some(mut f) = fitted {
+            f.constrained.transmission =
+                absent_over(&mut values, self.plan, &f, Param::Transmission);
+            f.constrained.subsurface = absent_over(&mut values, self.plan, &f, Param::Subsurface);
             if self.method.fit_roughness_last() {
                 pinned_roughness_over(&mut values, self.plan, &f);
             }
@@ -577,11 +580,12 @@ impl FitTally {
     /// The method that answered `kind` under `method`, and the share the
     /// photos pinned.
     fn answered(&self, kind: Param, method: Method) -> (Method, Option<f32>) {
-        let share = self.constrained.and_then(|c| match kind {
-            Param::Basecolor => Some(c.basecolor),
-            Param::Roughness => Some(c.roughness),
-            Param::Metallic => Some(c.metallic),
-            _ => None,
+        let share = self.constrained.map(|c| match kind {
+            Param::Basecolor => c.basecolor,
+            Param::Roughness => c.roughness,
+            Param::Metallic => c.metallic,
+            Param::Transmission => c.transmission,
+            Param::Subsurface => c.subsurface,
         });
         // Under a method that falls back to the networks where the photos
         // pin nothing, a parameter pinned nowhere was the networks' answer
@@ -637,6 +641,7 @@ fn fit_values(
             .then(|| values.scalar.get(&Param::Metallic).map(Vec::as_slice))
             .flatten(),
         labels: labels.as_deref(),
+        backlight: None,
     };
     let grey = vec![[0.5f32; 3]; n];
     let half = vec![0.5f32; n];
@@ -684,6 +689,19 @@ fn pinned_roughness_over(values: &mut Values, plan: &Plan, fitted: &Fitted) {
     }
     if let Some(roughness) = values.scalar.get_mut(&Param::Roughness) {
         fitted.pinned_roughness_into(roughness);
+    }
+}
+
+/// Sets `kind` (transmission or subsurface, estimated only) to 0 in
+/// `values` on the materials the photos show lack it; returns the share
+/// of the object it answered.
+fn absent_over(values: &mut Values, plan: &Plan, fitted: &Fitted, kind: Param) -> f32 {
+    if *plan.decision(kind) != Decision::Estimate {
+        return 0.0;
+    }
+    match values.scalar.get_mut(&kind) {
+        Some(map) => fitted.absent_into(kind, map),
+        None => 0.0,
     }
 }
 
