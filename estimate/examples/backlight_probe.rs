@@ -1,6 +1,7 @@
 //! What the backlit photo shows through each kind of truth material, on
 //! every simulated scan under a folder: per scan, at its reference
-//! position, the checker's global share of the projector's light and the
+//! position, each truth material's median backlight and global share;
+//! the checker's global share of the projector's light and the
 //! backlight's share of the panel's radiance (median / 80th / 95th
 //! percentile, pixel count) over dielectric pixels whose truth has
 //! transmission only, subsurface only, both or neither; then, for
@@ -20,7 +21,11 @@ use matscan_estimate::pipeline::inputs::SceneInputs;
 use matscan_estimate::pipeline::views::{select_views, ViewFilter};
 use matscan_scan::bvh::{Ray, RayCaster};
 use matscan_scan::{Bundle, Param};
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+
+/// Per truth material: basecolor lumas, backlight shares, global shares.
+type Pools = (Vec<f32>, Vec<f32>, Vec<f32>);
 
 fn scans(dir: &Path, out: &mut Vec<PathBuf>) {
     if dir.join("scan.toml").exists() {
@@ -162,6 +167,37 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                         median(err),
                         tt.len()
                     );
+                }
+                // Each truth material (metallic, transmission, subsurface to
+                // 0.01): pixels, luma basecolor, median backlight and
+                // global share.
+                let mut combos: BTreeMap<(i32, i32, i32), Pools> = BTreeMap::new();
+                for i in 0..inputs.pixels() {
+                    if !inputs.mask.data[i] || uv.cos_nv()[i] < 0.5 {
+                        continue;
+                    }
+                    let key = (
+                        (mt[i] * 100.0).round() as i32,
+                        (t[i] * 100.0).round() as i32,
+                        (ss[i] * 100.0).round() as i32,
+                    );
+                    let e = combos.entry(key).or_default();
+                    e.0.push(luma([b[3 * i], b[3 * i + 1], b[3 * i + 2]]));
+                    if m.share[i].is_finite() {
+                        e.1.push(m.share[i]);
+                    }
+                    let tot = luma([0, 1, 2].map(|c| uv.lit()[i][c] - uv.ambient()[i][c])) / level;
+                    let gl = luma(g.rgb.data[i]);
+                    if tot > 1e-4 && gl.is_finite() {
+                        e.2.push(gl / tot);
+                    }
+                }
+                for (k, v) in &combos {
+                    if v.0.len() < 200 {
+                        continue;
+                    }
+                    println!("{name:14} material m {:.2} t {:.2} ss {:.2}: {} px, b {:.2}, backlight {:.3} ({} px), global {:.2}",
+                        k.0 as f32 / 100.0, k.1 as f32 / 100.0, k.2 as f32 / 100.0, v.0.len(), median(v.0.clone()), median(v.1.clone()), v.1.len(), median(v.2.clone()));
                 }
                 let mut gs: Vec<Vec<f32>> = vec![Vec::new(); 4];
                 let mut bs: Vec<Vec<f32>> = vec![Vec::new(); 4];

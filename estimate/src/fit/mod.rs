@@ -22,7 +22,9 @@
 //!
 //! The backlit photo ([`backlight`]) says per material whether any light
 //! passes through it: one that passes light is fitted as a dielectric,
-//! one that passes none without transmission.
+//! one that passes none without transmission, and one that passes light
+//! and scatters none inside with the transmission the light through it
+//! measures.
 //!
 //! What the photos cannot pin is reported, not invented: a material's
 //! roughness is pinned when its cost curve over roughness has a clear
@@ -240,6 +242,11 @@ pub struct MaterialFit {
     /// checker separated it (under [`FitLight::Material`]).
     #[serde(default)]
     pub global_share: Option<f32>,
+    /// Its transmission, measured through it with the backlight, where it
+    /// passes light and scatters none inside
+    /// ([`backlight::transmission_from`]).
+    #[serde(default)]
+    pub transmission: Option<f32>,
 }
 
 impl MaterialFit {
@@ -279,8 +286,9 @@ pub struct Constrained {
     pub basecolor: f32,
     pub roughness: f32,
     pub metallic: f32,
-    /// Transmission and subsurface: the share set to 0 where the photos
-    /// show the material lacks them (see [`Fitted::absent_into`]).
+    /// Transmission and subsurface: the share the photos measured (0 where
+    /// they show the material lacks them, or a measured transmission; see
+    /// [`Fitted::measured_into`]).
     #[serde(default)]
     pub transmission: f32,
     #[serde(default)]
@@ -296,6 +304,10 @@ pub struct Fitted {
     /// Material index per pixel (`None` outside the mask or unfitted).
     pub labels: Vec<Option<usize>>,
     pub materials: Vec<MaterialFit>,
+    /// Transmission measured through each pixel of the materials whose
+    /// transmission the backlight measured (see
+    /// [`MaterialFit::transmission`]); `None` elsewhere, or empty.
+    pub transmission: Vec<Option<f32>>,
     pub constrained: Constrained,
     /// Views left out, and similar.
     pub notes: Vec<String>,
@@ -318,19 +330,25 @@ impl Fitted {
 }
 
 impl Fitted {
-    /// Writes 0 into `map` of `kind` (transmission or subsurface) at the
-    /// pixels of the materials the photos show lack it
-    /// ([`MaterialFit::lacks`]), leaving every other pixel as it was;
-    /// returns the share of the fitted pixels written.
-    pub fn absent_into(&self, kind: Param, map: &mut [f32]) -> f32 {
+    /// Writes into `map` of `kind` (transmission or subsurface) what the
+    /// photos measured: 0 at the pixels of the materials they show lack it
+    /// ([`MaterialFit::lacks`]), a material's measured transmission,
+    /// leaving every other pixel as it was; returns the share of the
+    /// fitted pixels written.
+    pub fn measured_into(&self, kind: Param, map: &mut [f32]) -> f32 {
         let (mut written, mut fitted) = (0usize, 0usize);
-        for (v, label) in map.iter_mut().zip(&self.labels) {
+        for (i, (v, label)) in map.iter_mut().zip(&self.labels).enumerate() {
             let Some(m) = label.and_then(|j| self.materials.get(j)) else {
                 continue;
             };
             fitted += 1;
-            if m.lacks(kind) {
-                *v = 0.0;
+            let through = self.transmission.get(i).copied().flatten();
+            let measured = match (kind, through) {
+                (Param::Transmission, Some(t)) => Some(t),
+                _ => m.lacks(kind).then_some(0.0),
+            };
+            if let Some(value) = measured {
+                *v = value;
                 written += 1;
             }
         }
@@ -353,7 +371,8 @@ impl Fitted {
                 continue;
             };
             fitted += 1;
-            let opaque = !m.scattering && !m.passes_light();
+            // Opaque, or transmitting what the backlight measured.
+            let opaque = !m.scattering && (!m.passes_light() || m.transmission.is_some());
             if m.metallic < 0.5 && opaque && fit.iter().all(|v| v.is_finite()) {
                 *b = fit.map(|v| v.clamp(0.0, 1.0));
                 written += 1;
@@ -739,6 +758,45 @@ where
         material.global_share = share.map(|s| s as f32);
         materials.push(material);
     }
+    // A material that passes light and scatters none inside transmits it:
+    // its transmission from the light seen through it and its diffuse
+    // albedo, which the direct light shows at transmission 0: the median
+    // over the material's pixels (per pixel, or setting pixels that show no
+    // light through to 0, measured worse on `tune`).
+    let mut through: Vec<Option<f32>> = vec![None; n];
+    if let (Some(b), Some(o)) = (known.backlight, options.backlight.as_ref()) {
+        for (j, m) in materials.iter_mut().enumerate() {
+            let clear = m
+                .global_share
+                .is_some_and(|s| f64::from(s) < SCATTERING_SHARE);
+            if !(m.passes_light() && clear && !m.scattering) {
+                continue;
+            }
+            let list: Vec<usize> = (0..n).filter(|&i| parts.labels[i] == Some(j)).collect();
+            let albedo: HashMap<usize, f32> = list
+                .par_iter()
+                .filter_map(|&i| {
+                    let obs = direct_at(i);
+                    let fit = solve(
+                        obs,
+                        &responses(obs, m.roughness, 0.0, &fixed_at(i, true)),
+                        &options.noise,
+                    );
+                    (fit.weight > 0.0).then(|| (i, matscan_calib::photos::luma(fit.basecolor)))
+                })
+                .collect();
+            m.transmission = b.transmission(&list, |i| albedo.get(&i).copied(), o);
+            if let Some(median) = m.transmission {
+                for &i in &list {
+                    through[i] = Some(median);
+                }
+            }
+        }
+    }
+    let fixed_of = |i: usize, m: &MaterialFit| match through[i] {
+        Some(t) => Fixed { transmission: t },
+        None => fixed_at(i, m.blocks_light()),
+    };
     let observed = |i: usize, j: usize| -> &[Sample] {
         if materials[j].scattering {
             &total_light[i]
@@ -757,7 +815,7 @@ where
             let j = parts.labels[i]?;
             let m = &materials[j];
             let obs = observed(i, j);
-            let r = responses(obs, m.roughness, m.metallic, &fixed_at(i, m.blocks_light()));
+            let r = responses(obs, m.roughness, m.metallic, &fixed_of(i, m));
             let fit = solve(obs, &r, &options.noise);
             Some((r, fit))
         })
@@ -809,6 +867,7 @@ where
         metallic: vec![0.0; n],
         labels: parts.labels.clone(),
         materials: Vec::new(),
+        transmission: through,
         constrained: Constrained::default(),
         notes: Vec::new(),
         seconds: 0.0,
@@ -1086,6 +1145,7 @@ fn choose(
         scattering: false,
         backlight: None,
         global_share: None,
+        transmission: None,
     }
 }
 

@@ -318,6 +318,7 @@ fn pinned_roughness_replaces_only_the_pixels_of_materials_that_pinned_it() {
         scattering: false,
         backlight: None,
         global_share: None,
+        transmission: None,
     };
     let fitted = Fitted {
         basecolor: vec![[0.5; 3]; 4],
@@ -325,6 +326,7 @@ fn pinned_roughness_replaces_only_the_pixels_of_materials_that_pinned_it() {
         metallic: vec![0.0; 4],
         labels: vec![Some(0), Some(1), None, Some(0)],
         materials: vec![material(0.2, true), material(0.9, false)],
+        transmission: Vec::new(),
         constrained: Constrained {
             basecolor: 0.5,
             roughness: 0.5,
@@ -398,6 +400,7 @@ fn dielectric_basecolor_replaces_only_the_pixels_of_opaque_dielectric_materials(
         scattering,
         backlight: None,
         global_share: None,
+        transmission: None,
     };
     let fitted = Fitted {
         basecolor: vec![
@@ -416,6 +419,7 @@ fn dielectric_basecolor_replaces_only_the_pixels_of_opaque_dielectric_materials(
             material(1.0, false),
             material(0.0, true),
         ],
+        transmission: Vec::new(),
         constrained: Constrained::default(),
         notes: Vec::new(),
         seconds: 0.0,
@@ -768,14 +772,17 @@ fn a_dielectric_that_passes_no_backlight_is_fitted_without_transmission() {
         object.len()
     );
     let mut transmission = vec![0.7f32; n];
-    let share = blocked.absent_into(Param::Transmission, &mut transmission);
+    let share = blocked.measured_into(Param::Transmission, &mut transmission);
     assert!(share > 0.9, "{share}");
     let zeroed = object.iter().filter(|&&i| transmission[i] == 0.0).count();
     assert_eq!(zeroed as f32, (share * object.len() as f32).round());
     assert!((0..n).filter(|&i| !mask[i]).all(|i| transmission[i] == 0.7));
     // Unread, nothing is written.
     let mut untouched = vec![0.7f32; n];
-    assert_eq!(unread.absent_into(Param::Transmission, &mut untouched), 0.0);
+    assert_eq!(
+        unread.measured_into(Param::Transmission, &mut untouched),
+        0.0
+    );
     assert!(untouched.iter().all(|&v| v == 0.7));
 }
 
@@ -797,6 +804,7 @@ fn transmission_and_subsurface_are_absent_only_where_the_photos_show_it() {
                 passage,
             }),
             global_share: global,
+            transmission: None,
         };
     use backlight::Passage::{Blocked, Partly, Passes};
     // A blocked metal (both hidden in it); a blocked dielectric (neither);
@@ -817,25 +825,120 @@ fn transmission_and_subsurface_are_absent_only_where_the_photos_show_it() {
         metallic: vec![0.0; 10],
         labels,
         materials,
+        // The clear material's transmission measured through its pixels.
+        transmission: vec![
+            None,
+            None,
+            None,
+            None,
+            Some(0.3),
+            Some(0.35),
+            None,
+            None,
+            None,
+            None,
+        ],
         constrained: Constrained::default(),
         notes: Vec::new(),
         seconds: 0.0,
     };
     let mut transmission = vec![0.4f32; 10];
     assert_eq!(
-        fitted.absent_into(Param::Transmission, &mut transmission),
-        0.2
+        fitted.measured_into(Param::Transmission, &mut transmission),
+        0.4
     );
     assert_eq!(
         transmission,
-        vec![0.4, 0.4, 0.0, 0.0, 0.4, 0.4, 0.4, 0.4, 0.4, 0.4]
+        vec![0.4, 0.4, 0.0, 0.0, 0.3, 0.35, 0.4, 0.4, 0.4, 0.4]
     );
     let mut subsurface = vec![0.4f32; 10];
-    assert_eq!(fitted.absent_into(Param::Subsurface, &mut subsurface), 0.4);
+    assert_eq!(
+        fitted.measured_into(Param::Subsurface, &mut subsurface),
+        0.4
+    );
     assert_eq!(
         subsurface,
         vec![0.4, 0.4, 0.0, 0.0, 0.0, 0.0, 0.4, 0.4, 0.4, 0.4]
     );
     let mut roughness = vec![0.4f32; 10];
-    assert_eq!(fitted.absent_into(Param::Roughness, &mut roughness), 0.0);
+    assert_eq!(fitted.measured_into(Param::Roughness, &mut roughness), 0.0);
+}
+
+#[test]
+fn a_clear_material_that_passes_backlight_gets_its_transmission_and_basecolor_measured() {
+    // A dielectric with transmission 0.6: the flashes see (1 - t) of its
+    // basecolor, the backlight (1 - F0)^2 (t b)^2 of the panel. The
+    // networks' map says 0; its light is 5 % global (no scattering inside).
+    let side = 32;
+    let n = side * side;
+    let (t, basecolor) = (0.6f32, [0.7f32, 0.5, 0.3]);
+    let truth = Params {
+        basecolor,
+        roughness: 0.3,
+        metallic: 0.0,
+    };
+    let mask: Vec<bool> = (0..n).map(|i| normal(i, side).is_some()).collect();
+    let b = bsdf(&truth.to_x(), &Fixed { transmission: t });
+    let observe = |i: usize| -> Vec<Sample> {
+        let Some(nrm) = normal(i, side) else {
+            return Vec::new();
+        };
+        lights()
+            .iter()
+            .filter_map(|&l| {
+                let (wo, wi) = (local(nrm, Vec3::Z), local(nrm, l));
+                if wo.z <= 0.05 || wi.z <= 0.05 {
+                    return None;
+                }
+                let mut s = Sample::exact(Observation::rendered(&b, wo, wi, [1.5; 3]));
+                s.global = s.observation.observed.map(|o| 0.05 * o);
+                Some(s)
+            })
+            .collect()
+    };
+    let passed = 1.0 - matscan_bsdf::fresnel_dielectric_cos(1.0, matscan_bsdf::material::IOR);
+    let luma = matscan_calib::photos::luma(basecolor);
+    let through = through(n, (passed * t * luma).powi(2));
+    let fitted = fit_pixels(
+        &mask,
+        side,
+        observe,
+        &vec![0.0; n],
+        Known {
+            backlight: Some(&through),
+            ..Known::default()
+        },
+        None,
+        &FitOptions::default(),
+    );
+    let object: Vec<usize> = (0..n).filter(|&i| mask[i]).collect();
+    let measured: usize = fitted
+        .materials
+        .iter()
+        .filter(|m| m.transmission.is_some_and(|v| (v - t).abs() < 0.05))
+        .map(|m| m.pixels)
+        .sum();
+    assert!(measured > object.len() * 9 / 10, "{:?}", fitted.materials);
+    assert!(fitted
+        .materials
+        .iter()
+        .all(|m| m.metallic == 0.0 && !m.scattering));
+    let mut map = vec![0.0f32; n];
+    let share = fitted.measured_into(Param::Transmission, &mut map);
+    assert!(share > 0.9, "{share}");
+    assert!(
+        object
+            .iter()
+            .filter(|&&i| (map[i] - t).abs() < 0.05)
+            .count()
+            > object.len() * 9 / 10
+    );
+    // Its basecolor is the albedo over (1 - t), and fit-dielectric takes it.
+    let close = object
+        .iter()
+        .filter(|&&i| (0..3).all(|c| (fitted.basecolor[i][c] - basecolor[c]).abs() < 0.06))
+        .count();
+    assert!(close > object.len() * 9 / 10, "{close} of {}", object.len());
+    let mut written = vec![[0.0f32; 3]; n];
+    assert!(fitted.dielectric_basecolor_into(&mut written) > 0.9);
 }

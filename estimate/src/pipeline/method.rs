@@ -1,10 +1,10 @@
 //! Which estimator answers basecolor, roughness and metallic.
 //!
-//! Transmission and subsurface come from their networks, except that
-//! under every fitting method they are 0 on the dielectric materials the
-//! backlight shows passing no light ([`crate::fit::backlight`]): the
-//! point-light photos the fit explains say little about them, and the
-//! backlit photo says only whether any light passes.
+//! Transmission and subsurface come from their networks, except where
+//! under every fitting method the backlit and checker photos measure them
+//! ([`crate::fit::backlight`]): 0 on a dielectric that passes no light, 0
+//! subsurface where no light scatters inside, and the transmission of a
+//! material that passes light straight through.
 
 use matscan_scan::Param;
 use serde::{Deserialize, Serialize};
@@ -129,8 +129,8 @@ impl Method {
     /// the method itself where the fit's answer stands, else the networks.
     pub fn answering(self, kind: Param) -> Method {
         match (self, kind) {
-            // Every fitting method reads the backlight: transmission and
-            // subsurface are 0 on the materials it shows lack them, the
+            // Every fitting method reads the backlight and the checker:
+            // transmission and subsurface where they measure them, the
             // networks' elsewhere.
             (Method::Networks | Method::Hybrid, Param::Transmission | Param::Subsurface) => {
                 Method::Networks

@@ -488,11 +488,20 @@ impl Pass<'_> {
         } else {
             None
         };
+        // The networks that follow the fit read what the photos measured
+        // of transmission and subsurface; a subsurface network among them
+        // is overruled where the photos measured it too.
+        let measure = |values: &mut Values, f: &mut Fitted| {
+            f.constrained.transmission = measured_over(values, self.plan, f, Param::Transmission);
+            f.constrained.subsurface = measured_over(values, self.plan, f, Param::Subsurface);
+        };
+        let mut fitted = fitted;
+        if let Some(f) = fitted.as_mut() {
+            measure(&mut values, f);
+        }
         self.run_networks(after, inputs, &mut values, &mut runs)?;
         if let Some(mut f) = fitted {
-            f.constrained.transmission =
-                absent_over(&mut values, self.plan, &f, Param::Transmission);
-            f.constrained.subsurface = absent_over(&mut values, self.plan, &f, Param::Subsurface);
+            measure(&mut values, &mut f);
             if self.method.fit_roughness_last() {
                 pinned_roughness_over(&mut values, self.plan, &f);
             }
@@ -692,15 +701,16 @@ fn pinned_roughness_over(values: &mut Values, plan: &Plan, fitted: &Fitted) {
     }
 }
 
-/// Sets `kind` (transmission or subsurface, estimated only) to 0 in
-/// `values` on the materials the photos show lack it; returns the share
-/// of the object it answered.
-fn absent_over(values: &mut Values, plan: &Plan, fitted: &Fitted, kind: Param) -> f32 {
+/// Puts what the photos measured of `kind` (transmission or subsurface,
+/// estimated only) into `values`: 0 on the materials they show lack it, a
+/// material's measured transmission; returns the share of the object it
+/// answered.
+fn measured_over(values: &mut Values, plan: &Plan, fitted: &Fitted, kind: Param) -> f32 {
     if *plan.decision(kind) != Decision::Estimate {
         return 0.0;
     }
     match values.scalar.get_mut(&kind) {
-        Some(map) => fitted.absent_into(kind, map),
+        Some(map) => fitted.measured_into(kind, map),
         None => 0.0,
     }
 }
