@@ -22,43 +22,18 @@ use matscan_estimate::pipeline::views::{select_views, ViewFilter};
 use matscan_scan::bvh::{Ray, RayCaster};
 use matscan_scan::{Bundle, Param};
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// Per truth material: basecolor lumas, backlight shares, global shares.
 type Pools = (Vec<f32>, Vec<f32>, Vec<f32>);
 
-fn scans(dir: &Path, out: &mut Vec<PathBuf>) {
-    if dir.join("scan.toml").exists() {
-        out.push(dir.to_path_buf());
-        return;
-    }
-    let Ok(entries) = std::fs::read_dir(dir) else {
-        return;
-    };
-    let mut dirs: Vec<PathBuf> = entries
-        .flatten()
-        .map(|e| e.path())
-        .filter(|p| p.is_dir())
-        .collect();
-    dirs.sort();
-    for d in dirs {
-        scans(&d, out);
-    }
-}
-
-fn median(mut v: Vec<f32>) -> f32 {
-    if v.is_empty() {
-        return f32::NAN;
-    }
-    v.sort_by(f32::total_cmp);
-    v[v.len() / 2]
-}
+mod support;
+use support::median;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
     let root = Path::new(args.get(1).ok_or("usage: backlight_probe DIR")?);
-    let mut list = Vec::new();
-    scans(root, &mut list);
+    let list = matscan_scan::bundle::find_bundles(root)?;
     for scan in &list {
         let bundle = Bundle::open(scan)?;
         let calibration = calibrate_bundle(&bundle, &CalibOptions::default())?;

@@ -13,34 +13,10 @@ use matscan_estimate::fit::{fit_scene, FitLight, FitOptions, Known};
 use matscan_estimate::pipeline::inputs::SceneInputs;
 use matscan_estimate::pipeline::views::{select_views, ViewFilter};
 use matscan_scan::{Bundle, Param};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-fn scans(dir: &Path, out: &mut Vec<PathBuf>) {
-    if dir.join("scan.toml").exists() {
-        out.push(dir.to_path_buf());
-        return;
-    }
-    let Ok(entries) = std::fs::read_dir(dir) else {
-        return;
-    };
-    let mut dirs: Vec<PathBuf> = entries
-        .flatten()
-        .map(|e| e.path())
-        .filter(|p| p.is_dir())
-        .collect();
-    dirs.sort();
-    for d in dirs {
-        scans(&d, out);
-    }
-}
-
-fn median(mut v: Vec<f32>) -> f32 {
-    if v.is_empty() {
-        return f32::NAN;
-    }
-    v.sort_by(f32::total_cmp);
-    v[v.len() / 2]
-}
+mod support;
+use support::median;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
@@ -49,8 +25,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "usage: fit_tune DIR [--quiet] [--basecolor-pull P] [--saturation S] [--direct]",
         )?);
     let quiet = args.iter().any(|a| a == "--quiet");
-    let mut list = Vec::new();
-    scans(root, &mut list);
+    let list = matscan_scan::bundle::find_bundles(root)?;
     let mut options = FitOptions::default();
     let value = |flag: &str| -> Option<f64> {
         let k = args.iter().position(|a| a == flag)?;

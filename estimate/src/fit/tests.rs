@@ -667,6 +667,27 @@ fn through(n: usize, share: f32) -> backlight::Backlight {
     }
 }
 
+/// Fits a `side` x `side` dome of `truth` under the caller's transmission
+/// map `transmission`, the backlight showing `share` of the panel's light
+/// through every pixel (unread when `None`).
+fn fit_dome_through(side: usize, truth: Params, transmission: f32, share: Option<f32>) -> Fitted {
+    let n = side * side;
+    let mask: Vec<bool> = (0..n).map(|i| normal(i, side).is_some()).collect();
+    let b = share.map(|s| through(n, s));
+    fit_pixels(
+        &mask,
+        side,
+        |i| observe(i, side, &|_| truth),
+        &vec![transmission; n],
+        Known {
+            backlight: b.as_ref(),
+            ..Known::default()
+        },
+        None,
+        &FitOptions::default(),
+    )
+}
+
 #[test]
 fn a_material_that_passes_backlight_is_fitted_as_a_dielectric() {
     // Gold's photos pin it as metal; light seen through it rules a metal
@@ -674,21 +695,7 @@ fn a_material_that_passes_backlight_is_fitted_as_a_dielectric() {
     let side = 32;
     let n = side * side;
     let mask: Vec<bool> = (0..n).map(|i| normal(i, side).is_some()).collect();
-    let fit = |share: Option<f32>| {
-        let b = share.map(|s| through(n, s));
-        fit_pixels(
-            &mask,
-            side,
-            |i| observe(i, side, &|_| GOLD),
-            &vec![0.0; n],
-            Known {
-                backlight: b.as_ref(),
-                ..Known::default()
-            },
-            None,
-            &FitOptions::default(),
-        )
-    };
+    let fit = |share: Option<f32>| fit_dome_through(side, GOLD, 0.0, share);
     let unread = fit(None);
     assert!(unread
         .materials
@@ -725,21 +732,7 @@ fn a_dielectric_that_passes_no_backlight_is_fitted_without_transmission() {
     let side = 32;
     let n = side * side;
     let mask: Vec<bool> = (0..n).map(|i| normal(i, side).is_some()).collect();
-    let fit = |share: Option<f32>| {
-        let b = share.map(|s| through(n, s));
-        fit_pixels(
-            &mask,
-            side,
-            |i| observe(i, side, &|_| RED_PLASTIC),
-            &vec![0.5; n],
-            Known {
-                backlight: b.as_ref(),
-                ..Known::default()
-            },
-            None,
-            &FitOptions::default(),
-        )
-    };
+    let fit = |share: Option<f32>| fit_dome_through(side, RED_PLASTIC, 0.5, share);
     let object: Vec<usize> = (0..n).filter(|&i| mask[i]).collect();
     let close = |f: &Fitted| {
         object
