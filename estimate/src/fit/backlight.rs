@@ -128,6 +128,45 @@ pub struct Backlight {
 }
 
 impl Backlight {
+    /// The share at every pixel of `mask` (`width` pixels a row): where it
+    /// was not measured (the edge, grazing views), the share of the nearest
+    /// measured pixel of the mask (4-connected steps); 0 where the mask
+    /// holds no measured pixel.
+    pub fn filled(&self, mask: &[bool], width: usize) -> Vec<f32> {
+        let n = mask.len();
+        let mut out = vec![0.0f32; n];
+        let mut seen = vec![false; n];
+        let mut queue = std::collections::VecDeque::new();
+        for i in 0..n {
+            if let Some(&s) = self.share.get(i).filter(|s| mask[i] && s.is_finite()) {
+                out[i] = s;
+                seen[i] = true;
+                queue.push_back(i);
+            }
+        }
+        while let Some(i) = queue.pop_front() {
+            let (x, y) = (i % width.max(1), i / width.max(1));
+            let mut next = |j: usize| {
+                if j < n && mask[j] && !seen[j] {
+                    seen[j] = true;
+                    out[j] = out[i];
+                    queue.push_back(j);
+                }
+            };
+            if x > 0 {
+                next(i - 1);
+            }
+            if x + 1 < width {
+                next(i + 1);
+            }
+            if y > 0 {
+                next(i - width);
+            }
+            next(i + width);
+        }
+        out
+    }
+
     /// The transmission of the material made of the reference pixels
     /// `members` (the median of [`transmission_from`] over its measured
     /// pixels, `albedo(pixel)` its diffuse albedo's luma); `None` where too
@@ -462,6 +501,23 @@ mod tests {
         // Sizes that do not match are named.
         let why = backlight_shares(&diff, &object, &cos[..10], &options).err();
         assert!(why.is_some_and(|w| w.contains("1600 pixels") && w.contains("cosines 10")));
+    }
+
+    #[test]
+    fn unmeasured_pixels_take_the_nearest_measured_share() {
+        // A row of 5 in a 5 x 2 image: measured at 1 (0.1) and 3 (0.3).
+        let mut share = vec![f32::NAN; 10];
+        share[1] = 0.1;
+        share[3] = 0.3;
+        share[5] = 0.9; // outside the mask
+        let mask: Vec<bool> = (0..10).map(|i| i < 5).collect();
+        let b = backlight(share);
+        assert_eq!(
+            b.filled(&mask, 5),
+            vec![0.1, 0.1, 0.1, 0.3, 0.3, 0.0, 0.0, 0.0, 0.0, 0.0]
+        );
+        let none = backlight(vec![f32::NAN; 10]);
+        assert!(none.filled(&mask, 5).iter().all(|&s| s == 0.0));
     }
 
     #[test]

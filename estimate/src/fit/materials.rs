@@ -12,12 +12,18 @@
 //! pixels in index order, so the same scan always splits the same way.
 
 /// One pixel's features; `None` for pixels the photos say nothing of.
-pub type Feature = [f32; 3];
+pub type Feature = [f32; 4];
 
 /// The features of a pixel: its square-root apparent albedo (closer to
-/// perceived difference than linear).
-pub fn feature(albedo: [f32; 3]) -> Feature {
-    albedo.map(|v| v.max(0.0).sqrt())
+/// perceived difference than linear), and the share of the backlight
+/// panel's light seen through it (0 where none passes or no backlight was
+/// read): two parts of one colour that differ in what they let through
+/// are two materials. The share enters linearly: its square root, which
+/// weighs a faint passage as much as a colour, split `tune`'s materials
+/// worse (docs/results.md).
+pub fn feature(albedo: [f32; 3], through: f32) -> Feature {
+    let [r, g, b] = albedo.map(|v| v.max(0.0).sqrt());
+    [r, g, b, through.max(0.0)]
 }
 
 /// How the split is chosen.
@@ -162,7 +168,7 @@ fn kmeans(points: &[Feature], k: usize) -> Vec<Feature> {
         centres.push(points[pick]);
     }
     for _ in 0..30 {
-        let mut sums = vec![[0.0f64; 3]; centres.len()];
+        let mut sums = vec![[0.0f64; 4]; centres.len()];
         let mut n = vec![0usize; centres.len()];
         for p in points {
             let j = nearest(&centres, p).0;
@@ -209,13 +215,28 @@ mod tests {
     use super::*;
 
     fn noisy(base: [f32; 3], n: usize, seed: u64) -> Vec<Option<Feature>> {
+        noisy_through(base, 0.0, n, seed)
+    }
+
+    fn noisy_through(base: [f32; 3], through: f32, n: usize, seed: u64) -> Vec<Option<Feature>> {
         let mut rng = SplitMix(seed);
         (0..n)
             .map(|_| {
                 let j = |v: f32, rng: &mut SplitMix| v + 0.02 * (rng.unit() as f32 - 0.5);
-                Some(feature(base.map(|v| j(v, &mut rng))))
+                Some(feature(base.map(|v| j(v, &mut rng)), through))
             })
             .collect()
+    }
+
+    #[test]
+    fn one_colour_that_passes_backlight_in_part_splits_in_two() {
+        let mut f = noisy_through([0.4, 0.4, 0.4], 0.0, 400, 5);
+        f.extend(noisy_through([0.4, 0.4, 0.4], 0.08, 400, 6));
+        let s = split(&f, &SplitOptions::default());
+        assert_eq!(s.count, 2);
+        assert_ne!(s.labels[0], s.labels[400]);
+        assert!((0..400).all(|i| s.labels[i] == s.labels[0]));
+        assert!((400..800).all(|i| s.labels[i] == s.labels[400]));
     }
 
     #[test]

@@ -13,7 +13,8 @@
 //!    form per pixel and channel, and the pixel's robust residual is
 //!    stored.
 //! 3. Materials ([`materials`]): pixels are split by their own best
-//!    answer's colour and metallic vote; each material's roughness and
+//!    answer's colour and the backlight's share seen through them (the
+//!    nearest measured pixel's where unmeasured); each material's roughness and
 //!    metallic is the grid point with the least summed cost over all its
 //!    pixels (one pixel rarely sees a highlight, a material does), refined
 //!    between grid points by a parabola in ln roughness.
@@ -653,9 +654,13 @@ where
         .enumerate()
         .min_by(|a, b| (a.1 - 0.5).abs().total_cmp(&(b.1 - 0.5).abs()))
         .map_or(0, |(k, _)| k);
+    let seen_through = known
+        .backlight
+        .map_or_else(|| vec![0.0; n], |b| b.filled(mask, width));
     let features: Vec<Option<Feature>> = volumes
         .iter()
-        .map(|v| Some(feature(v.as_ref()?.basecolor[reference])))
+        .zip(&seen_through)
+        .map(|(v, &t)| Some(feature(v.as_ref()?.basecolor[reference], t)))
         .collect();
     let parts = match known.labels {
         // Given materials keep only the pixels the fit can place.
