@@ -132,6 +132,48 @@ pub enum FitLight {
     Material,
 }
 
+/// The transmission of each material that passes light and scatters none
+/// inside (its global share below [`SCATTERING_SHARE`]), measured from the
+/// light seen through it and its diffuse albedo's luma (`albedo(pixel,
+/// material)`): the median over its pixels of
+/// [`backlight::transmission_from`] (per pixel, or with the pixels that
+/// show no light through set to 0, measured worse on `tune`). Records it
+/// in the material and returns it per pixel (`None` elsewhere).
+fn clear_transmission<A>(
+    materials: &mut [MaterialFit],
+    labels: &[Option<usize>],
+    backlight: &Backlight,
+    options: &BacklightOptions,
+    albedo: A,
+) -> Vec<Option<f32>>
+where
+    A: Fn(usize, &MaterialFit) -> Option<f32> + Sync,
+{
+    let mut through = vec![None; labels.len()];
+    for (j, m) in materials.iter_mut().enumerate() {
+        let clear = m
+            .global_share
+            .is_some_and(|s| f64::from(s) < SCATTERING_SHARE);
+        if !(m.passes_light() && clear && !m.scattering) {
+            continue;
+        }
+        let list: Vec<usize> = (0..labels.len())
+            .filter(|&i| labels[i] == Some(j))
+            .collect();
+        let of: HashMap<usize, f32> = list
+            .par_iter()
+            .filter_map(|&i| Some((i, albedo(i, m)?)))
+            .collect();
+        m.transmission = backlight.transmission(&list, |i| of.get(&i).copied(), options);
+        if let Some(median) = m.transmission {
+            for &i in &list {
+                through[i] = Some(median);
+            }
+        }
+    }
+    through
+}
+
 /// The share of a material's lit-minus-ambient light that is global at
 /// which [`FitLight::Material`] fits it to its total light. On a convex
 /// opaque object the global light is interreflection, a few per cent of
@@ -763,41 +805,20 @@ where
         material.global_share = share.map(|s| s as f32);
         materials.push(material);
     }
-    // A material that passes light and scatters none inside transmits it:
-    // its transmission from the light seen through it and its diffuse
-    // albedo, which the direct light shows at transmission 0: the median
-    // over the material's pixels (per pixel, or setting pixels that show no
-    // light through to 0, measured worse on `tune`).
-    let mut through: Vec<Option<f32>> = vec![None; n];
-    if let (Some(b), Some(o)) = (known.backlight, options.backlight.as_ref()) {
-        for (j, m) in materials.iter_mut().enumerate() {
-            let clear = m
-                .global_share
-                .is_some_and(|s| f64::from(s) < SCATTERING_SHARE);
-            if !(m.passes_light() && clear && !m.scattering) {
-                continue;
-            }
-            let list: Vec<usize> = (0..n).filter(|&i| parts.labels[i] == Some(j)).collect();
-            let albedo: HashMap<usize, f32> = list
-                .par_iter()
-                .filter_map(|&i| {
-                    let obs = direct_at(i);
-                    let fit = solve(
-                        obs,
-                        &responses(obs, m.roughness, 0.0, &fixed_at(i, true)),
-                        &options.noise,
-                    );
-                    (fit.weight > 0.0).then(|| (i, matscan_calib::photos::luma(fit.basecolor)))
-                })
-                .collect();
-            m.transmission = b.transmission(&list, |i| albedo.get(&i).copied(), o);
-            if let Some(median) = m.transmission {
-                for &i in &list {
-                    through[i] = Some(median);
-                }
-            }
-        }
-    }
+    let through = match (known.backlight, options.backlight.as_ref()) {
+        (Some(b), Some(o)) => clear_transmission(&mut materials, &parts.labels, b, o, |i, m| {
+            // The diffuse albedo, which the direct light shows at
+            // transmission 0.
+            let obs = direct_at(i);
+            let fit = solve(
+                obs,
+                &responses(obs, m.roughness, 0.0, &fixed_at(i, true)),
+                &options.noise,
+            );
+            (fit.weight > 0.0).then(|| matscan_calib::photos::luma(fit.basecolor))
+        }),
+        _ => vec![None; n],
+    };
     let fixed_of = |i: usize, m: &MaterialFit| match through[i] {
         Some(t) => Fixed { transmission: t },
         None => fixed_at(i, m.blocks_light()),
