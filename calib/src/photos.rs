@@ -170,9 +170,9 @@ pub(crate) fn difference(
     out
 }
 
-/// The `q` quantile (0..=1, nearest rank) of the finite `values`; `None`
-/// when there are none.
-pub(crate) fn quantile(values: &mut Vec<f32>, q: f64) -> Option<f32> {
+/// The `q` quantile (0..=1, nearest rank) of the finite `values` (which
+/// it drops the others from and reorders); `None` when there are none.
+pub fn quantile(values: &mut Vec<f32>, q: f64) -> Option<f32> {
     values.retain(|v| v.is_finite());
     if values.is_empty() {
         return None;

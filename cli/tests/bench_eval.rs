@@ -298,13 +298,7 @@ fn the_error_budget_feeds_each_set_of_truth_pieces_and_scores_the_rest_against_t
             .map(|r| r[col(c)].parse().unwrap())
     };
     // The estimate as it is: every parameter, no change against itself.
-    for p in [
-        "basecolor",
-        "roughness",
-        "metallic",
-        "transmission",
-        "subsurface",
-    ] {
+    for p in matscan_scan::Param::ALL.map(matscan_scan::Param::name) {
         let mad = cell("none", p, "mad").unwrap_or_else(|| panic!("no none row for {p}"));
         assert!((0.0..=1.0).contains(&mad), "{p}: {mad}");
         assert_eq!(cell("none", p, "delta_mad"), Some(0.0), "{p}");

@@ -42,7 +42,7 @@
 use crate::pipeline::inputs::SceneInputs;
 use matscan_bsdf::fresnel_dielectric_cos;
 use matscan_bsdf::material::IOR;
-use matscan_calib::photos::luma;
+use matscan_calib::photos::{luma, quantile};
 use matscan_calib::white_reference::{robust_mean, segment_panel};
 use matscan_scan::raster::{MaskRaster, RgbRaster};
 use serde::{Deserialize, Serialize};
@@ -167,28 +167,19 @@ impl Backlight {
         out
     }
 
-    /// The transmission of the material made of the reference pixels
-    /// `members` (the median of [`transmission_from`] over its measured
-    /// pixels, `albedo(pixel)` its diffuse albedo's luma); `None` where too
+    /// The transmission of the material whose reference pixels have the
+    /// diffuse albedos (luma) `albedo`, `(pixel, albedo)` pairs: the median
+    /// of [`transmission_from`] over its measured pixels; `None` where too
     /// few of them were measured.
-    pub fn transmission(
-        &self,
-        members: &[usize],
-        albedo: impl Fn(usize) -> Option<f32>,
-        options: &BacklightOptions,
-    ) -> Option<f32> {
-        let mut t: Vec<f32> = members
+    pub fn transmission(&self, albedo: &[(usize, f32)], options: &BacklightOptions) -> Option<f32> {
+        let mut t: Vec<f32> = albedo
             .iter()
-            .filter_map(|&i| {
-                let share = self.share.get(i).copied().filter(|s| s.is_finite())?;
-                transmission_from(share, albedo(i)?)
-            })
+            .filter_map(|&(i, a)| transmission_from(*self.share.get(i)?, a))
             .collect();
         if t.len() < options.min_pixels.max(1) {
             return None;
         }
-        t.sort_by(f32::total_cmp);
-        Some(t[t.len() / 2])
+        quantile(&mut t, 0.5)
     }
 
     /// The reading of the material made of the reference pixels
@@ -206,13 +197,13 @@ impl Backlight {
         if shares.len() < options.min_pixels.max(1) {
             return None;
         }
-        shares.sort_by(f32::total_cmp);
-        let share = shares[shares.len() / 2];
-        let high = shares[(shares.len() - 1) * 9 / 10];
+        let pixels = shares.len();
+        let share = quantile(&mut shares, 0.5)?;
+        let high = quantile(&mut shares, 0.9)?;
         Some(MaterialBacklight {
             share,
             high,
-            pixels: shares.len(),
+            pixels,
             passage: if share >= options.passes {
                 Passage::Passes
             } else if high < options.blocked {
@@ -547,9 +538,9 @@ mod tests {
             min_pixels: 2,
             ..Default::default()
         };
-        let t = b.transmission(&[0, 1, 2], |_| Some(0.3), &options);
+        let t = b.transmission(&[(0, 0.3), (1, 0.3), (2, 0.3)], &options);
         assert!(t.is_some_and(|t| (t - 0.5).abs() < 1e-5), "{t:?}");
-        assert_eq!(b.transmission(&[0, 1], |_| Some(0.3), &options), None);
+        assert_eq!(b.transmission(&[(0, 0.3), (1, 0.3)], &options), None);
     }
 
     fn backlight(share: Vec<f32>) -> Backlight {

@@ -57,6 +57,7 @@ use linear::{
     footprint_alpha2, responses, solve, solve_pulled, LinearFit, Noise, Pull, Response, Sample,
 };
 use materials::{feature, split, Feature, Split, SplitOptions};
+use matscan_calib::photos::quantile;
 use matscan_calib::ScanCalibration;
 use matscan_scan::{Bundle, Param};
 use rayon::prelude::*;
@@ -132,46 +133,31 @@ pub enum FitLight {
     Material,
 }
 
-/// The transmission of each material that passes light and scatters none
-/// inside (its global share below [`SCATTERING_SHARE`]), measured from the
-/// light seen through it and its diffuse albedo's luma (`albedo(pixel,
-/// material)`): the median over its pixels of
-/// [`backlight::transmission_from`] (per pixel, or with the pixels that
-/// show no light through set to 0, measured worse on `tune`). Records it
-/// in the material and returns it per pixel (`None` elsewhere).
+/// Records in each material that passes light and scatters none inside
+/// its transmission, measured from the light seen through it and its
+/// diffuse albedo's luma (`albedo(pixel, material)`): the median over its
+/// pixels of [`backlight::transmission_from`] (per pixel, or with the
+/// pixels that show no light through set to 0, measured worse on `tune`).
 fn clear_transmission<A>(
     materials: &mut [MaterialFit],
     labels: &[Option<usize>],
     backlight: &Backlight,
     options: &BacklightOptions,
     albedo: A,
-) -> Vec<Option<f32>>
-where
+) where
     A: Fn(usize, &MaterialFit) -> Option<f32> + Sync,
 {
-    let mut through = vec![None; labels.len()];
     for (j, m) in materials.iter_mut().enumerate() {
-        let clear = m
-            .global_share
-            .is_some_and(|s| f64::from(s) < SCATTERING_SHARE);
-        if !(m.passes_light() && clear && !m.scattering) {
+        if !(m.passes_light() && m.scatters_none() && !m.scattering) {
             continue;
         }
-        let list: Vec<usize> = (0..labels.len())
+        let seen: Vec<(usize, f32)> = (0..labels.len())
+            .into_par_iter()
             .filter(|&i| labels[i] == Some(j))
+            .filter_map(|i| Some((i, albedo(i, m)?)))
             .collect();
-        let of: HashMap<usize, f32> = list
-            .par_iter()
-            .filter_map(|&i| Some((i, albedo(i, m)?)))
-            .collect();
-        m.transmission = backlight.transmission(&list, |i| of.get(&i).copied(), options);
-        if let Some(median) = m.transmission {
-            for &i in &list {
-                through[i] = Some(median);
-            }
-        }
+        m.transmission = backlight.transmission(&seen, options);
     }
-    through
 }
 
 /// The share of a material's lit-minus-ambient light that is global at
@@ -304,19 +290,23 @@ impl MaterialFit {
             .is_some_and(|b| b.passage == Passage::Blocked)
     }
 
+    /// Whether its global share was measured and is below
+    /// [`SCATTERING_SHARE`]: it scatters no light inside.
+    pub fn scatters_none(&self) -> bool {
+        self.global_share
+            .is_some_and(|s| f64::from(s) < SCATTERING_SHARE)
+    }
+
     /// Whether the photos show the material has no `kind` (transmission
     /// or subsurface): a dielectric the backlight shows passing no light
-    /// has neither transmission nor light scattered through it; one whose
-    /// measured global share is below [`SCATTERING_SHARE`] scatters no
-    /// light inside. A metal hides both (their weights are zero in it).
+    /// has neither transmission nor light scattered through it; one that
+    /// scatters none inside has no subsurface. A metal hides both (their
+    /// weights are zero in it).
     pub fn lacks(&self, kind: Param) -> bool {
-        let scatters_none = self
-            .global_share
-            .is_some_and(|s| f64::from(s) < SCATTERING_SHARE);
         self.metallic < 0.5
             && match kind {
                 Param::Transmission => self.blocks_light(),
-                Param::Subsurface => self.blocks_light() || scatters_none,
+                Param::Subsurface => self.blocks_light() || self.scatters_none(),
                 _ => false,
             }
     }
@@ -347,10 +337,6 @@ pub struct Fitted {
     /// Material index per pixel (`None` outside the mask or unfitted).
     pub labels: Vec<Option<usize>>,
     pub materials: Vec<MaterialFit>,
-    /// Transmission measured through each pixel of the materials whose
-    /// transmission the backlight measured (see
-    /// [`MaterialFit::transmission`]); `None` elsewhere, or empty.
-    pub transmission: Vec<Option<f32>>,
     pub constrained: Constrained,
     /// Views left out, and similar.
     pub notes: Vec<String>,
@@ -380,13 +366,12 @@ impl Fitted {
     /// fitted pixels written.
     pub fn measured_into(&self, kind: Param, map: &mut [f32]) -> f32 {
         let (mut written, mut fitted) = (0usize, 0usize);
-        for (i, (v, label)) in map.iter_mut().zip(&self.labels).enumerate() {
+        for (v, label) in map.iter_mut().zip(&self.labels) {
             let Some(m) = label.and_then(|j| self.materials.get(j)) else {
                 continue;
             };
             fitted += 1;
-            let through = self.transmission.get(i).copied().flatten();
-            let measured = match (kind, through) {
+            let measured = match (kind, m.transmission) {
                 (Param::Transmission, Some(t)) => Some(t),
                 _ => m.lacks(kind).then_some(0.0),
             };
@@ -805,8 +790,8 @@ where
         material.global_share = share.map(|s| s as f32);
         materials.push(material);
     }
-    let through = match (known.backlight, options.backlight.as_ref()) {
-        (Some(b), Some(o)) => clear_transmission(&mut materials, &parts.labels, b, o, |i, m| {
+    if let (Some(b), Some(o)) = (known.backlight, options.backlight.as_ref()) {
+        clear_transmission(&mut materials, &parts.labels, b, o, |i, m| {
             // The diffuse albedo, which the direct light shows at
             // transmission 0.
             let obs = direct_at(i);
@@ -816,10 +801,9 @@ where
                 &options.noise,
             );
             (fit.weight > 0.0).then(|| matscan_calib::photos::luma(fit.basecolor))
-        }),
-        _ => vec![None; n],
-    };
-    let fixed_of = |i: usize, m: &MaterialFit| match through[i] {
+        });
+    }
+    let fixed_of = |i: usize, m: &MaterialFit| match m.transmission {
         Some(t) => Fixed { transmission: t },
         None => fixed_at(i, m.blocks_light()),
     };
@@ -893,7 +877,6 @@ where
         metallic: vec![0.0; n],
         labels: parts.labels.clone(),
         materials: Vec::new(),
-        transmission: through,
         constrained: Constrained::default(),
         notes: Vec::new(),
         seconds: 0.0,
@@ -1106,16 +1089,8 @@ fn choose(
     options: &FitOptions,
 ) -> MaterialFit {
     let median = |v: &[f32]| -> Option<f32> {
-        let mut s: Vec<f32> = members
-            .iter()
-            .filter_map(|&i| v.get(i).copied())
-            .filter(|x| x.is_finite())
-            .collect();
-        if s.is_empty() {
-            return None;
-        }
-        s.sort_by(f32::total_cmp);
-        Some(s[s.len() / 2])
+        let mut s: Vec<f32> = members.iter().filter_map(|&i| v.get(i).copied()).collect();
+        quantile(&mut s, 0.5)
     };
     let r = grid.len();
     let known_metallic = known

@@ -326,7 +326,6 @@ fn pinned_roughness_replaces_only_the_pixels_of_materials_that_pinned_it() {
         metallic: vec![0.0; 4],
         labels: vec![Some(0), Some(1), None, Some(0)],
         materials: vec![material(0.2, true), material(0.9, false)],
-        transmission: Vec::new(),
         constrained: Constrained {
             basecolor: 0.5,
             roughness: 0.5,
@@ -419,7 +418,6 @@ fn dielectric_basecolor_replaces_only_the_pixels_of_opaque_dielectric_materials(
             material(1.0, false),
             material(0.0, true),
         ],
-        transmission: Vec::new(),
         constrained: Constrained::default(),
         notes: Vec::new(),
         seconds: 0.0,
@@ -801,16 +799,18 @@ fn transmission_and_subsurface_are_absent_only_where_the_photos_show_it() {
         };
     use backlight::Passage::{Blocked, Partly, Passes};
     // A blocked metal (both hidden in it); a blocked dielectric (neither);
-    // a dielectric passing light with little global light (transmission
-    // unknown, no subsurface); one passing light that scatters it inside
+    // a dielectric passing light with little global light (its measured
+    // transmission, no subsurface); one passing light that scatters it inside
     // (both unknown); one partly passing, unseparated (both unknown).
-    let materials = vec![
+    let mut materials = vec![
         material(1.0, Some(Blocked), Some(0.0)),
         material(0.0, Some(Blocked), Some(0.5)),
         material(0.0, Some(Passes), Some(0.05)),
         material(0.0, Some(Passes), Some(0.8)),
         material(0.0, Some(Partly), None),
     ];
+    // The clear material's transmission, measured through it.
+    materials[2].transmission = Some(0.3);
     let labels: Vec<Option<usize>> = (0..10).map(|i| Some(i / 2)).collect();
     let fitted = Fitted {
         basecolor: vec![[0.5; 3]; 10],
@@ -818,19 +818,6 @@ fn transmission_and_subsurface_are_absent_only_where_the_photos_show_it() {
         metallic: vec![0.0; 10],
         labels,
         materials,
-        // The clear material's transmission measured through its pixels.
-        transmission: vec![
-            None,
-            None,
-            None,
-            None,
-            Some(0.3),
-            Some(0.35),
-            None,
-            None,
-            None,
-            None,
-        ],
         constrained: Constrained::default(),
         notes: Vec::new(),
         seconds: 0.0,
@@ -842,7 +829,7 @@ fn transmission_and_subsurface_are_absent_only_where_the_photos_show_it() {
     );
     assert_eq!(
         transmission,
-        vec![0.4, 0.4, 0.0, 0.0, 0.3, 0.35, 0.4, 0.4, 0.4, 0.4]
+        vec![0.4, 0.4, 0.0, 0.0, 0.3, 0.3, 0.4, 0.4, 0.4, 0.4]
     );
     let mut subsurface = vec![0.4f32; 10];
     assert_eq!(

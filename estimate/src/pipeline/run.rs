@@ -483,25 +483,29 @@ impl Pass<'_> {
         let mut values = held_values(self.plan, inputs)?;
         let mut runs = BTreeMap::new();
         self.run_networks(before, inputs, &mut values, &mut runs)?;
-        let fitted = if self.method.fits() {
+        let mut fitted = if self.method.fits() {
             Some(self.fit_values(&mut values, inputs)?)
         } else {
             None
         };
         // The networks that follow the fit read what the photos measured
-        // of transmission and subsurface; a subsurface network among them
-        // is overruled where the photos measured it too.
+        // of transmission and subsurface; one of those two among them is
+        // overruled again where the photos measured it.
         let measure = |values: &mut Values, f: &mut Fitted| {
             f.constrained.transmission = measured_over(values, self.plan, f, Param::Transmission);
             f.constrained.subsurface = measured_over(values, self.plan, f, Param::Subsurface);
         };
-        let mut fitted = fitted;
         if let Some(f) = fitted.as_mut() {
             measure(&mut values, f);
         }
         self.run_networks(after, inputs, &mut values, &mut runs)?;
+        let measured_after = after
+            .iter()
+            .any(|k| matches!(k, Param::Transmission | Param::Subsurface));
         if let Some(mut f) = fitted {
-            measure(&mut values, &mut f);
+            if measured_after {
+                measure(&mut values, &mut f);
+            }
             if self.method.fit_roughness_last() {
                 pinned_roughness_over(&mut values, self.plan, &f);
             }
