@@ -21,6 +21,7 @@
 pub mod atomic;
 pub mod bundle;
 pub mod bvh;
+pub mod calib_bundle;
 pub mod camera;
 pub mod capture_list;
 pub mod error;

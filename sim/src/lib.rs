@@ -6,6 +6,8 @@
 //! - [`render`]: a Monte Carlo path tracer with next-event estimation and
 //!   multiple importance sampling over the rig's lights and the environment,
 //!   and the writer of whole scan bundles;
+//! - [`calib_target`]: a printed chessboard before a rig's camera, written
+//!   as a calibration bundle with the true rig beside it;
 //! - [`dataset`]: sets of scans, by seed run or by recipe, resumable and
 //!   sharded.
 //!
@@ -22,6 +24,7 @@
 //! seedable, platform-independent generator so renders are deterministic per
 //! seed.
 
+pub mod calib_target;
 pub mod dataset;
 pub mod render;
 pub mod scene;

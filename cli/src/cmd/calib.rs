@@ -1,5 +1,6 @@
-//! `matscan calib`: write a bundle's calibration maps, or check its
-//! calibration against its photos.
+//! `matscan calib`: write a bundle's calibration maps, check its
+//! calibration against its photos, or (through [`super::rig_calib`])
+//! calibrate the rig itself from photos of a printed board.
 
 use anyhow::{Context, Result};
 use clap::{Args, Subcommand};
@@ -35,6 +36,22 @@ pub enum CalibAction {
         #[arg(long)]
         json: bool,
     },
+    /// Calibrate the rig's camera from a calibration bundle (photos of a
+    /// printed chessboard): intrinsics, distortion and the camera's pose at
+    /// every position, written as a rig file with a report. Exits 2 when
+    /// the calibration is refused (the report says which shots to retake).
+    Rig(super::rig_calib::RigArgs),
+    /// Render a calibration bundle on the simulated rig: a printed board
+    /// at several poses per position, with the true rig beside it.
+    Board(super::rig_calib::BoardArgs),
+    /// Compare two rig files: focal length, principal point, and the
+    /// camera's pose at every position both name.
+    Compare {
+        /// The rig file to judge.
+        measured: PathBuf,
+        /// The rig file to judge it against.
+        reference: PathBuf,
+    },
 }
 
 /// Runs `matscan calib`: exit code 2 when a check fails.
@@ -47,6 +64,15 @@ pub fn run(a: CalibArgs) -> Result<()> {
                 std::process::exit(2)
             }
         }
+        (Some(CalibAction::Rig(r)), _) => super::rig_calib::run_rig(r),
+        (Some(CalibAction::Board(b)), _) => super::rig_calib::run_board(b),
+        (
+            Some(CalibAction::Compare {
+                measured,
+                reference,
+            }),
+            _,
+        ) => super::rig_calib::run_compare(&measured, &reference),
         (None, Some(scan)) => {
             let out = a.out.unwrap_or_else(|| scan.join("calib"));
             write(&scan, &out)

@@ -10,6 +10,7 @@ pub mod estimate;
 pub mod eval;
 pub mod export;
 pub mod render;
+pub mod rig_calib;
 pub mod sheet;
 pub mod simulate;
 pub mod status;
@@ -77,7 +78,8 @@ pub enum Command {
     /// built-in path tracer.
     Simulate(simulate::SimulateArgs),
     /// Write a bundle's calibration maps (float EXR, one folder per
-    /// position), or `calib check SCAN` to check its calibration.
+    /// position), `calib check SCAN` to check its calibration, or `calib
+    /// rig BUNDLE` to calibrate the rig's camera from board photos.
     #[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
     Calib(calib::CalibArgs),
     /// Draw a contact sheet of a scan bundle: the estimate beside the

@@ -13,6 +13,12 @@ pub enum SimError {
     NoSuchPosition { index: usize, count: usize },
     #[error("position `{position}` has no rig light named `{light}`")]
     NoSuchLight { position: String, light: String },
+    #[error("{}: {source}", path.display())]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
     #[error("invalid render options: {0}")]
     Options(String),
     /// A scene description could not be made.

@@ -1,0 +1,178 @@
+//! `matscan calib rig`, `calib board` and `calib compare`: the rig
+//! calibrated from photos of a printed chessboard, the simulated rig's
+//! board photos, and two rig files side by side.
+
+use anyhow::{Context, Result};
+use clap::Args;
+use matscan_rigcal::compare::compare;
+use matscan_rigcal::write::write_calibration;
+use matscan_rigcal::{calibrate_camera, Acceptance};
+use matscan_scan::calib_bundle::CalibManifest;
+use matscan_scan::Manifest;
+use matscan_sim::calib_target::{write_board_bundle, BoardBundleOptions, TRUTH_RIG};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+#[derive(Debug, Args)]
+pub struct RigArgs {
+    /// The calibration bundle folder (`calib.toml` and the board photos).
+    pub bundle: PathBuf,
+    /// Output folder for `rig.toml` and `calib-report.toml` (default:
+    /// BUNDLE/result).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Keep each position's lights from this rig file (same position
+    /// names); without it the rig file has no lights and the report says so.
+    #[arg(long)]
+    pub lights_from: Option<PathBuf>,
+    /// Refuse a calibration whose reprojection RMS is above this, pixels.
+    #[arg(long, default_value_t = Acceptance::default().max_rms_px)]
+    pub max_rms: f64,
+}
+
+#[derive(Debug, Args)]
+pub struct BoardArgs {
+    /// Output folder (must not exist).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Photo width and height, pixels.
+    #[arg(long, default_value_t = 1024)]
+    pub size: u32,
+    #[arg(long, default_value_t = 3)]
+    pub positions: usize,
+    /// Shots per position, the reference shot included.
+    #[arg(long, default_value_t = 8)]
+    pub shots: usize,
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Paths per pixel.
+    #[arg(long, default_value_t = 16)]
+    pub samples: u32,
+}
+
+/// Runs `matscan calib rig`: exit code 2 when the calibration is refused.
+pub fn run_rig(a: RigArgs) -> Result<()> {
+    let manifest = CalibManifest::read(&a.bundle)
+        .with_context(|| format!("reading calibration bundle {}", a.bundle.display()))?;
+    let lights = match &a.lights_from {
+        Some(path) => Some((
+            path.as_path(),
+            Manifest::read_rig(path)
+                .with_context(|| format!("reading lights from {}", path.display()))?
+                .0,
+        )),
+        None => None,
+    };
+    let acceptance = Acceptance {
+        max_rms_px: a.max_rms,
+        ..Acceptance::default()
+    };
+    let t = Instant::now();
+    let calibration = calibrate_camera(&a.bundle, &manifest, &acceptance)
+        .with_context(|| format!("calibrating the camera from {}", a.bundle.display()))?;
+    let seconds = t.elapsed().as_secs_f64();
+    let out = a.out.unwrap_or_else(|| a.bundle.join("result"));
+    let written = write_calibration(&out, &calibration, lights.as_ref().map(|(p, m)| (*p, m)))
+        .with_context(|| format!("writing the calibration to {}", out.display()))?;
+    let r = &calibration.report;
+    println!(
+        "camera {}x{}: fx {:.2} fy {:.2} cx {:.2} cy {:.2}, distortion {:.4} {:.4} {:.5} {:.5} {:.4}",
+        r.width,
+        r.height,
+        r.fx,
+        r.fy,
+        r.cx,
+        r.cy,
+        r.distortion[0],
+        r.distortion[1],
+        r.distortion[2],
+        r.distortion[3],
+        r.distortion[4]
+    );
+    println!(
+        "{} shots, reprojection RMS {:.3} px, coverage {:.0} %, {seconds:.2} s",
+        r.shots.len(),
+        r.rms_px,
+        100.0 * r.coverage
+    );
+    for s in &r.shots {
+        println!(
+            "  {} {}: {} corners, RMS {:.3} px (max {:.3}), tilt {:.0} deg{}",
+            s.position,
+            s.file.display(),
+            s.corners,
+            s.rms_px,
+            s.max_px,
+            s.tilt_deg,
+            if s.reference { ", reference" } else { "" }
+        );
+    }
+    match written {
+        Some(path) => {
+            println!(
+                "wrote {} and {}",
+                path.display(),
+                out.join("calib-report.toml").display()
+            );
+            Ok(())
+        }
+        None => {
+            eprintln!("calibration refused (report in {}):", out.display());
+            for p in &r.problems {
+                eprintln!("  - {p}");
+            }
+            for f in &r.retake {
+                eprintln!("  retake {}", f.display());
+            }
+            std::process::exit(2)
+        }
+    }
+}
+
+/// Runs `matscan calib board`: the simulated rig's board photos.
+pub fn run_board(a: BoardArgs) -> Result<()> {
+    let opts = BoardBundleOptions {
+        width: a.size,
+        height: a.size,
+        positions: a.positions,
+        shots_per_position: a.shots,
+        seed: a.seed,
+        samples: a.samples,
+        ..BoardBundleOptions::default()
+    };
+    let t = Instant::now();
+    let manifest = write_board_bundle(&opts, &a.out)
+        .with_context(|| format!("rendering a board bundle into {}", a.out.display()))?;
+    println!(
+        "{} positions x {} shots of a {}x{} board ({} m squares) in {} ({:.1} s); the true rig is {}",
+        manifest.positions.len(),
+        a.shots,
+        manifest.board.cols,
+        manifest.board.rows,
+        manifest.board.square,
+        a.out.display(),
+        t.elapsed().as_secs_f64(),
+        a.out.join(TRUTH_RIG).display()
+    );
+    Ok(())
+}
+
+/// Runs `matscan calib compare MEASURED REFERENCE`.
+pub fn run_compare(measured: &Path, reference: &Path) -> Result<()> {
+    let read = |p: &Path| {
+        Manifest::read_rig(p)
+            .map(|(m, _)| m)
+            .with_context(|| format!("reading rig file {}", p.display()))
+    };
+    let d = compare(&read(measured)?, &read(reference)?);
+    println!(
+        "focal length {:.4} %, principal point {:.3} px; over {} positions: camera position \
+         {:.3} mm, orientation {:.4} deg (worst)",
+        d.focal_percent,
+        d.principal_px,
+        d.positions,
+        1000.0 * d.position,
+        d.rotation_deg
+    );
+    Ok(())
+}

@@ -1,0 +1,352 @@
+//! The camera calibrated from a calibration bundle: corners found in every
+//! shot, Zhang's closed form as the start, the joint refinement, then a
+//! verdict on whether the result is good enough to scan with.
+
+use crate::detect::{find_board, Corner};
+use crate::error::RigcalError;
+use crate::model::project;
+use crate::refine::{refine, ShotPoints};
+use crate::zhang;
+use glam::{DMat4, DVec2};
+use matscan_scan::calib_bundle::CalibManifest;
+use matscan_scan::camera::Intrinsics;
+use matscan_scan::image_io::read_rgb;
+use matscan_scan::raster::RgbRaster;
+use matscan_scan::Encoding;
+use rayon::prelude::*;
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+
+/// When a calibration is refused.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Acceptance {
+    /// Largest reprojection RMS over all corners, pixels.
+    pub max_rms_px: f64,
+    /// Largest reprojection RMS of one shot, pixels: a shot above it is
+    /// named for a retake (blurred, moved, or mislabelled).
+    pub max_shot_rms_px: f64,
+    /// Smallest share of the image's [`COVERAGE_GRID`]^2 cells that must
+    /// hold a corner of some shot: distortion is only known where corners
+    /// were seen.
+    pub min_coverage: f64,
+    /// Largest angle between the board's normal and the line of sight.
+    pub max_tilt_deg: f64,
+    /// Fewest shots in all.
+    pub min_shots: usize,
+}
+
+impl Default for Acceptance {
+    fn default() -> Self {
+        Acceptance {
+            max_rms_px: 0.5,
+            max_shot_rms_px: 1.0,
+            min_coverage: 0.5,
+            max_tilt_deg: 70.0,
+            min_shots: 4,
+        }
+    }
+}
+
+/// Cells along each image side for the coverage figure.
+pub const COVERAGE_GRID: u32 = 6;
+
+/// One shot's figures.
+#[derive(Debug, Clone, Serialize)]
+pub struct ShotReport {
+    pub position: String,
+    pub file: PathBuf,
+    pub reference: bool,
+    pub corners: usize,
+    pub rms_px: f64,
+    pub max_px: f64,
+    /// Board normal against the line of sight, degrees.
+    pub tilt_deg: f64,
+    /// Board origin's distance from the camera, bundle units.
+    pub distance: f64,
+}
+
+/// What the calibration found and how well it explains the photos.
+#[derive(Debug, Clone, Serialize)]
+pub struct CameraReport {
+    pub width: u32,
+    pub height: u32,
+    pub fx: f64,
+    pub fy: f64,
+    pub cx: f64,
+    pub cy: f64,
+    /// OpenCV k1 k2 p1 p2 k3.
+    pub distortion: [f64; 5],
+    /// One standard deviation of fx fy cx cy k1 k2 p1 p2 k3 (absent where
+    /// the shots leave the system singular).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sigma: Option<[f64; 9]>,
+    /// Reprojection RMS over every corner of every shot, pixels.
+    pub rms_px: f64,
+    /// Share of the image's cells (a 6 x 6 grid) with a corner in some shot.
+    pub coverage: f64,
+    pub iterations: usize,
+    pub accepted: bool,
+    /// Why the calibration is refused (empty when accepted).
+    pub problems: Vec<String>,
+    /// Shots to take again.
+    pub retake: Vec<PathBuf>,
+    pub shots: Vec<ShotReport>,
+}
+
+/// The camera and its pose at every position.
+#[derive(Debug, Clone)]
+pub struct CameraCalibration {
+    pub camera: Intrinsics,
+    /// Per position of the bundle, in order: its name and camera-to-world.
+    pub camera_to_world: Vec<(String, DMat4)>,
+    pub report: CameraReport,
+    /// Corners found and reprojected per shot, in the report's order (for
+    /// the contact sheet).
+    pub corners: Vec<(Vec<Corner>, Vec<DVec2>)>,
+}
+
+/// Every shot with its position's index, positions in order.
+fn shots_of(manifest: &CalibManifest) -> Vec<(usize, &matscan_scan::calib_bundle::Shot)> {
+    manifest
+        .positions
+        .iter()
+        .enumerate()
+        .flat_map(|(p, pos)| pos.shots.iter().map(move |s| (p, s)))
+        .collect()
+}
+
+/// Reads a shot: EXR photos are linear; PNG photos are taken as sRGB, as
+/// cameras write them (the detector does not need linear light).
+pub fn read_shot(path: &Path) -> Result<RgbRaster, RigcalError> {
+    let encoding = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("png"))
+        .then_some(Encoding::Srgb);
+    Ok(read_rgb(path, encoding)?)
+}
+
+/// Calibrates the camera from the bundle in `dir` (its `calib.toml` is
+/// `manifest`). Fails on a photo without a complete board, on too few or
+/// edge-on shots, or when the shots do not determine the camera; a
+/// calibration that explains the photos poorly is returned with
+/// `report.accepted` false and the reasons.
+pub fn calibrate_camera(
+    dir: &Path,
+    manifest: &CalibManifest,
+    acceptance: &Acceptance,
+) -> Result<CameraCalibration, RigcalError> {
+    let board = manifest.board;
+    let shots = shots_of(manifest);
+    if shots.len() < acceptance.min_shots {
+        return Err(RigcalError::TooFewShots {
+            found: shots.len(),
+            needed: acceptance.min_shots,
+        });
+    }
+    type Found = Result<((u32, u32), Vec<Corner>), RigcalError>;
+    let found: Vec<Found> = shots
+        .par_iter()
+        .map(|(_, shot)| {
+            let path = dir.join(&shot.file);
+            let photo = read_shot(&path)?;
+            Ok((
+                (photo.width, photo.height),
+                find_board(&photo, &board, &path)?,
+            ))
+        })
+        .collect();
+    let mut detections = Vec::with_capacity(found.len());
+    for r in found {
+        detections.push(r?);
+    }
+    let (width, height) = detections[0].0;
+    for ((size, _), (_, shot)) in detections.iter().zip(&shots) {
+        if *size != (width, height) {
+            return Err(RigcalError::SizeMismatch {
+                path: dir.join(&shot.file),
+                width,
+                height,
+                found_width: size.0,
+                found_height: size.1,
+            });
+        }
+    }
+    let corners = detections.into_iter().map(|(_, c)| c).collect();
+    solve_camera(dir, manifest, corners, (width, height), acceptance)
+}
+
+/// The camera from corners already found: one list per shot, in the
+/// manifest's order (positions, then shots); `dir` names photos in errors.
+pub fn solve_camera(
+    dir: &Path,
+    manifest: &CalibManifest,
+    detections: Vec<Vec<Corner>>,
+    (width, height): (u32, u32),
+    acceptance: &Acceptance,
+) -> Result<CameraCalibration, RigcalError> {
+    let board = manifest.board;
+    let shots: Vec<(usize, &matscan_scan::calib_bundle::Shot)> = shots_of(manifest);
+    if shots.len() < acceptance.min_shots || detections.len() != shots.len() {
+        return Err(RigcalError::TooFewShots {
+            found: detections.len().min(shots.len()),
+            needed: acceptance.min_shots,
+        });
+    }
+    let points: Vec<ShotPoints> = detections
+        .iter()
+        .map(|corners| ShotPoints {
+            board: corners.iter().map(|c| board.corner(c.i, c.j)).collect(),
+            pixels: corners.iter().map(|c| c.pixel).collect(),
+        })
+        .collect();
+    let homographies = points
+        .iter()
+        .zip(&shots)
+        .map(|(sp, (_, shot))| {
+            let plane: Vec<DVec2> = sp.board.iter().map(|x| x.truncate()).collect();
+            zhang::homography(&plane, &sp.pixels).ok_or_else(|| {
+                RigcalError::Degenerate(format!(
+                    "{}: the corners do not define a plane's image",
+                    dir.join(&shot.file).display()
+                ))
+            })
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let start = zhang::intrinsics(&homographies, width, height)?;
+    let mut poses = Vec::with_capacity(shots.len());
+    for (h, (_, shot)) in homographies.iter().zip(&shots) {
+        let path = dir.join(&shot.file);
+        let pose = zhang::pose(h, &start).ok_or_else(|| {
+            RigcalError::Degenerate(format!("{}: no board pose fits", path.display()))
+        })?;
+        if pose.tilt_deg() > acceptance.max_tilt_deg {
+            return Err(RigcalError::EdgeOn {
+                path,
+                tilt_deg: pose.tilt_deg(),
+                limit_deg: acceptance.max_tilt_deg,
+            });
+        }
+        poses.push(pose);
+    }
+    let refined = refine(&start, &poses, &points);
+    Ok(judge(
+        manifest, &shots, detections, &points, refined, acceptance,
+    ))
+}
+
+fn judge(
+    manifest: &CalibManifest,
+    shots: &[(usize, &matscan_scan::calib_bundle::Shot)],
+    detections: Vec<Vec<Corner>>,
+    points: &[ShotPoints],
+    refined: crate::refine::Refined,
+    acceptance: &Acceptance,
+) -> CameraCalibration {
+    let camera = refined.camera;
+    let mut reports = Vec::with_capacity(shots.len());
+    let mut reprojected = Vec::with_capacity(shots.len());
+    let (mut sum, mut count) = (0.0, 0usize);
+    let mut cells = vec![false; (COVERAGE_GRID * COVERAGE_GRID) as usize];
+    for ((sp, pose), (p, shot)) in points.iter().zip(&refined.poses).zip(shots) {
+        let projected: Vec<DVec2> = sp
+            .board
+            .iter()
+            .map(|&x| project(&camera, pose, x))
+            .collect();
+        let errors: Vec<f64> = projected
+            .iter()
+            .zip(&sp.pixels)
+            .map(|(a, b)| (*a - *b).length())
+            .collect();
+        let squares: f64 = errors.iter().map(|e| e * e).sum();
+        sum += squares;
+        count += errors.len();
+        for px in &sp.pixels {
+            let cx = ((px.x / f64::from(camera.width)) * f64::from(COVERAGE_GRID)) as i64;
+            let cy = ((px.y / f64::from(camera.height)) * f64::from(COVERAGE_GRID)) as i64;
+            let g = i64::from(COVERAGE_GRID);
+            if (0..g).contains(&cx) && (0..g).contains(&cy) {
+                cells[(cy * g + cx) as usize] = true;
+            }
+        }
+        reports.push(ShotReport {
+            position: manifest.positions[*p].name.clone(),
+            file: shot.file.clone(),
+            reference: shot.reference,
+            corners: errors.len(),
+            rms_px: (squares / errors.len().max(1) as f64).sqrt(),
+            max_px: errors.iter().copied().fold(0.0, f64::max),
+            tilt_deg: pose.tilt_deg(),
+            distance: pose.translation.length(),
+        });
+        reprojected.push(projected);
+    }
+    let rms_px = (sum / count.max(1) as f64).sqrt();
+    let coverage = cells.iter().filter(|c| **c).count() as f64 / cells.len() as f64;
+    let mut problems = Vec::new();
+    let retake: Vec<PathBuf> = reports
+        .iter()
+        .filter(|r| r.rms_px.is_nan() || r.rms_px > acceptance.max_shot_rms_px)
+        .map(|r| r.file.clone())
+        .collect();
+    if rms_px.is_nan() || rms_px > acceptance.max_rms_px {
+        problems.push(format!(
+            "reprojection RMS {rms_px:.3} px is above {:.2} px",
+            acceptance.max_rms_px
+        ));
+    }
+    if !retake.is_empty() {
+        problems.push(format!(
+            "{} shot(s) reproject worse than {:.2} px RMS (blur, a moved board, or glare): \
+             retake them",
+            retake.len(),
+            acceptance.max_shot_rms_px
+        ));
+    }
+    if coverage < acceptance.min_coverage {
+        problems.push(format!(
+            "corners cover {:.0} % of the image, at least {:.0} % is needed: add shots with \
+             the board near the image's edges and corners",
+            100.0 * coverage,
+            100.0 * acceptance.min_coverage
+        ));
+    }
+    let camera_to_world = manifest
+        .positions
+        .iter()
+        .enumerate()
+        .map(|(p, position)| {
+            let reference = shots
+                .iter()
+                .position(|(q, s)| *q == p && s.reference)
+                .map(|k| refined.poses[k].matrix())
+                .unwrap_or(DMat4::IDENTITY);
+            (
+                position.name.clone(),
+                manifest.reference_to_world * reference.inverse(),
+            )
+        })
+        .collect();
+    CameraCalibration {
+        camera,
+        camera_to_world,
+        report: CameraReport {
+            width: camera.width,
+            height: camera.height,
+            fx: camera.fx,
+            fy: camera.fy,
+            cx: camera.cx,
+            cy: camera.cy,
+            distortion: camera.distortion,
+            sigma: refined.sigma,
+            rms_px,
+            coverage,
+            iterations: refined.iterations,
+            accepted: problems.is_empty(),
+            problems,
+            retake,
+            shots: reports,
+        },
+        corners: detections.into_iter().zip(reprojected).collect(),
+    }
+}

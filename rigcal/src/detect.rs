@@ -1,0 +1,230 @@
+//! Finding the board's inner corners in a photo, labelled by their place on
+//! the print.
+//!
+//! The detector (`calib-targets`: ChESS corners, grid growth and
+//! validation, subpixel positions) works on 8-bit grey, so the linear photo
+//! is brought to display levels first: luminance over its 99.5th
+//! percentile, then a 1/2.2 power, which gives the black and white squares
+//! the contrast a printed board has in an ordinary photo whatever the
+//! exposure. Only a complete board is accepted: a missing corner would
+//! shift the labels of a plain chessboard, and a labelling shifted by one
+//! square calibrates a wrong camera without any error to show for it.
+
+use crate::error::RigcalError;
+use calib_targets::chessboard::ChessboardParams;
+use calib_targets::detect::{default_chess_config, detect_chessboard_best};
+use glam::DVec2;
+use matscan_scan::calib_bundle::Chessboard;
+use matscan_scan::raster::RgbRaster;
+use std::path::Path;
+
+/// Where the detector's pixel (0, 0) centre lies in the contract's pixel
+/// coordinates (centres at integer + 0.5).
+const DETECTOR_TO_CONTRACT: f64 = 0.5;
+
+/// One inner corner: its label on the board and where the photo shows it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Corner {
+    /// Column and row of the inner corner on the board.
+    pub i: u32,
+    pub j: u32,
+    /// Pixel position, contract convention.
+    pub pixel: DVec2,
+}
+
+/// The photo's display-level grey image (see the module doc).
+pub fn grey_levels(photo: &RgbRaster) -> image::GrayImage {
+    let luminance: Vec<f32> = photo
+        .data
+        .iter()
+        .map(|p| {
+            let y = 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2];
+            if y.is_finite() {
+                y.max(0.0)
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let mut sorted = luminance.clone();
+    sorted.sort_by(f32::total_cmp);
+    let top = sorted
+        .get(((sorted.len() as f64 * 0.995) as usize).min(sorted.len().saturating_sub(1)))
+        .copied()
+        .unwrap_or(0.0)
+        .max(1e-12);
+    let pixels = luminance
+        .iter()
+        .map(|&y| ((y / top).clamp(0.0, 1.0).powf(1.0 / 2.2) * 255.0).round() as u8)
+        .collect();
+    image::GrayImage::from_raw(photo.width, photo.height, pixels)
+        .unwrap_or_else(|| image::GrayImage::new(photo.width, photo.height))
+}
+
+/// The board's inner corners in `photo`, every one of them, labelled so
+/// that corner (0, 0) is the one the photo shows top left; `path` names the
+/// photo in errors.
+pub fn find_board(
+    photo: &RgbRaster,
+    board: &Chessboard,
+    path: &Path,
+) -> Result<Vec<Corner>, RigcalError> {
+    let not_found = |reason: String| RigcalError::BoardNotFound {
+        path: path.to_path_buf(),
+        reason,
+    };
+    let grey = grey_levels(photo);
+    let detection = detect_chessboard_best(
+        &grey,
+        &default_chess_config(),
+        &ChessboardParams::sweep_default(),
+    )
+    .map_err(|e| not_found(format!("no chessboard found ({e})")))?;
+    let labels = || detection.corners.iter().map(|c| (c.grid.u, c.grid.v));
+    let (min_u, max_u) = bounds(labels().map(|l| l.0));
+    let (min_v, max_v) = bounds(labels().map(|l| l.1));
+    let (span_u, span_v) = (max_u - min_u + 1, max_v - min_v + 1);
+    let (cols, rows) = (board.cols as i32, board.rows as i32);
+    if (span_u, span_v) == (rows, cols) && detection.corners.len() == board.corner_count() {
+        return Err(not_found(format!(
+            "the board is turned a quarter: its {cols} corner columns run down the photo"
+        )));
+    }
+    if (span_u, span_v) != (cols, rows) || detection.corners.len() != board.corner_count() {
+        return Err(not_found(format!(
+            "found {} corners spanning {span_u} x {span_v}, expected all {} of the \
+             board's {cols} x {rows}",
+            detection.corners.len(),
+            board.corner_count()
+        )));
+    }
+    let mut corners: Vec<Corner> = detection
+        .corners
+        .iter()
+        .map(|c| Corner {
+            i: (c.grid.u - min_u) as u32,
+            j: (c.grid.v - min_v) as u32,
+            pixel: DVec2::new(
+                f64::from(c.position.x) + DETECTOR_TO_CONTRACT,
+                f64::from(c.position.y) + DETECTOR_TO_CONTRACT,
+            ),
+        })
+        .collect();
+    let luminance = Luminance::of(photo);
+    let spacing = corner_spacing(&corners);
+    for (corner, gap) in corners.iter_mut().zip(spacing) {
+        // The window stays inside the four squares that meet here.
+        let radius = (0.35 * gap).clamp(2.0, 12.0);
+        if let Some(p) = refine_saddle(&luminance, corner.pixel, radius) {
+            corner.pixel = p;
+        }
+    }
+    Ok(corners)
+}
+
+/// Per corner, the distance to its nearest labelled neighbour, pixels.
+fn corner_spacing(corners: &[Corner]) -> Vec<f64> {
+    corners
+        .iter()
+        .map(|c| {
+            corners
+                .iter()
+                .filter(|o| o.i.abs_diff(c.i) + o.j.abs_diff(c.j) == 1)
+                .map(|o| (o.pixel - c.pixel).length())
+                .fold(f64::INFINITY, f64::min)
+        })
+        .map(|d| if d.is_finite() { d } else { 8.0 })
+        .collect()
+}
+
+/// Linear luminance, finite and non-negative, for the subpixel step.
+struct Luminance {
+    width: usize,
+    height: usize,
+    values: Vec<f64>,
+}
+
+impl Luminance {
+    fn of(photo: &RgbRaster) -> Luminance {
+        Luminance {
+            width: photo.width as usize,
+            height: photo.height as usize,
+            values: photo
+                .data
+                .iter()
+                .map(|p| {
+                    let y = 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2];
+                    if y.is_finite() {
+                        f64::from(y.max(0.0))
+                    } else {
+                        0.0
+                    }
+                })
+                .collect(),
+        }
+    }
+
+    fn at(&self, x: usize, y: usize) -> f64 {
+        self.values[y * self.width + x]
+    }
+}
+
+/// The saddle point of the corner near `start` by gradient orthogonality
+/// (OpenCV's `cornerSubPix`, Foerstner's operator): every edge pixel's
+/// gradient is orthogonal to the line from the corner to it, so the corner
+/// solves `sum(g g^T) q = sum(g g^T p)` over a Gaussian-weighted window.
+/// `None` when the window leaves the image or holds no edge.
+fn refine_saddle(image: &Luminance, start: DVec2, radius: f64) -> Option<DVec2> {
+    let r = radius.ceil() as i64;
+    let sigma2 = 2.0 * (0.5 * radius).powi(2);
+    let mut q = start;
+    for _ in 0..20 {
+        // Pixel (x, y) has its centre at (x + 0.5, y + 0.5).
+        let (cx, cy) = ((q.x - 0.5).round() as i64, (q.y - 0.5).round() as i64);
+        if cx - r < 1
+            || cy - r < 1
+            || cx + r + 1 >= image.width as i64
+            || cy + r + 1 >= image.height as i64
+        {
+            return None;
+        }
+        let (mut a, mut b, mut c, mut bx, mut by) = (0.0, 0.0, 0.0, 0.0, 0.0);
+        for y in (cy - r)..=(cy + r) {
+            for x in (cx - r)..=(cx + r) {
+                let p = DVec2::new(x as f64 + 0.5, y as f64 + 0.5);
+                let d2 = (p - q).length_squared();
+                if d2 > radius * radius {
+                    continue;
+                }
+                let (xu, yu) = (x as usize, y as usize);
+                let gx = 0.5 * (image.at(xu + 1, yu) - image.at(xu - 1, yu));
+                let gy = 0.5 * (image.at(xu, yu + 1) - image.at(xu, yu - 1));
+                let w = (-d2 / sigma2).exp();
+                let (gxx, gxy, gyy) = (w * gx * gx, w * gx * gy, w * gy * gy);
+                a += gxx;
+                b += gxy;
+                c += gyy;
+                bx += gxx * p.x + gxy * p.y;
+                by += gxy * p.x + gyy * p.y;
+            }
+        }
+        let det = a * c - b * b;
+        if !(det.is_finite() && det > 1e-12 * (a + c).powi(2)) {
+            return None;
+        }
+        let next = DVec2::new((c * bx - b * by) / det, (a * by - b * bx) / det);
+        if !next.is_finite() || (next - start).length() > radius {
+            return None;
+        }
+        let moved = (next - q).length();
+        q = next;
+        if moved < 1e-4 {
+            break;
+        }
+    }
+    Some(q)
+}
+
+fn bounds(values: impl Iterator<Item = i32>) -> (i32, i32) {
+    values.fold((i32::MAX, i32::MIN), |(lo, hi), v| (lo.min(v), hi.max(v)))
+}

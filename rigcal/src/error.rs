@@ -1,0 +1,52 @@
+//! Errors of rig calibration: each names the photo, shot or file at fault
+//! and what was expected, so a user knows what to retake.
+
+use std::path::PathBuf;
+
+#[derive(Debug, thiserror::Error)]
+pub enum RigcalError {
+    /// Reading the bundle or writing a result failed.
+    #[error(transparent)]
+    Scan(#[from] matscan_scan::ScanError),
+    /// The detector found no complete board in a photo.
+    #[error(
+        "{}: {reason}; retake it with the whole board in view, evenly lit and in focus, \
+         or remove the shot from calib.toml",
+        path.display()
+    )]
+    BoardNotFound { path: PathBuf, reason: String },
+    /// Photos of one bundle must come from one camera.
+    #[error(
+        "{}: {found_width}x{found_height} pixels, but the bundle's first photo is \
+         {width}x{height}; every shot must come from the same camera",
+        path.display()
+    )]
+    SizeMismatch {
+        path: PathBuf,
+        width: u32,
+        height: u32,
+        found_width: u32,
+        found_height: u32,
+    },
+    /// Too few shots to separate focal length from distance.
+    #[error(
+        "{found} board shots in all; at least {needed} are needed, the board tilted \
+         differently in each (add shots to calib.toml)"
+    )]
+    TooFewShots { found: usize, needed: usize },
+    /// A shot seeing the board nearly edge-on: its corners constrain little
+    /// and locate badly.
+    #[error(
+        "{}: the board is seen {tilt_deg:.0} degrees from head-on (at most {limit_deg:.0}); \
+         retake it turned further towards the camera",
+        path.display()
+    )]
+    EdgeOn {
+        path: PathBuf,
+        tilt_deg: f64,
+        limit_deg: f64,
+    },
+    /// The shots do not determine the camera (all boards parallel, say).
+    #[error("the shots do not determine the camera: {0}")]
+    Degenerate(String),
+}

@@ -1,0 +1,46 @@
+//! The rig calibrated from its own photos: the camera's intrinsics,
+//! distortion and pose at every position, from shots of a printed
+//! chessboard (a `matscan-calib/1` bundle, see
+//! `matscan_scan::calib_bundle`), written as the rig calibration file the
+//! daemon reads (a scan manifest without captures) with a report that says
+//! how well the result explains the photos and which shots to retake.
+//!
+//! The steps: [`detect`] finds and labels every inner corner; [`zhang`]
+//! gives the closed-form start (homographies, intrinsics, poses);
+//! [`refine`] moves intrinsics, distortion and every pose together
+//! (Levenberg-Marquardt on the reprojection error); [`camera`] runs them
+//! over a bundle and judges the result; [`write`] publishes the rig file
+//! and the report.
+//!
+//! Crate choices: `calib-targets` (MIT OR Apache-2.0) for the board: ChESS
+//! corners with subpixel refinement, grid growth that rejects a board
+//! rather than mislabel it, and ChArUco and marker boards behind the same
+//! API for rigs where a plain board cannot be seen whole. `nalgebra`
+//! (Apache-2.0; the version `calib-targets` builds on, so one copy) for the
+//! SVDs and the Cholesky factorization of the solver. The
+//! Levenberg-Marquardt loop is ours: calibration's normal equations have a
+//! fixed block structure (9 shared unknowns, 6 per shot) that makes them a
+//! few hundred unknowns, where a general dense solver (the
+//! `levenberg-marquardt` crate factors the whole Jacobian) would do a
+//! hundred times the work; the bundle-adjustment toolboxes that exploit it
+//! (`vision-calibration`) bring a sparse solver stack that doubles the
+//! workspace's build time on CI's two cores.
+//!
+//! Boundaries: depends on `matscan-scan` only among matscan crates; no
+//! rendering (the simulated rig writes bundles for the tests), no device
+//! I/O (the daemon captures them).
+
+pub mod camera;
+pub mod compare;
+pub mod detect;
+pub mod error;
+pub mod model;
+pub mod refine;
+pub mod write;
+pub mod zhang;
+
+pub use camera::{calibrate_camera, Acceptance, CameraCalibration, CameraReport};
+pub use error::RigcalError;
+
+#[cfg(test)]
+mod tests;

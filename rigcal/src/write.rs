@@ -1,0 +1,97 @@
+//! Publishing a calibration: the rig file the daemon reads (`rig.toml`, a
+//! scan manifest without captures) and `calib-report.toml`, each written
+//! atomically. A refused calibration writes its report only, so a rig file
+//! on disk is always one that passed.
+
+use crate::camera::{CameraCalibration, CameraReport};
+use crate::error::RigcalError;
+use matscan_scan::atomic::write_atomic;
+use matscan_scan::{Manifest, Position};
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+
+/// File names inside the output folder.
+pub const RIG_FILE: &str = "rig.toml";
+pub const REPORT_FILE: &str = "calib-report.toml";
+
+/// The report file: the camera's figures and what the rig file lacks.
+#[derive(Debug, Serialize)]
+struct ReportFile<'a> {
+    format: &'static str,
+    /// What the rig file does not hold from this calibration: lights kept
+    /// from another file are named with it, lights neither measured nor
+    /// kept are missing.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    missing: Vec<String>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    lights_from: Option<PathBuf>,
+    camera: &'a CameraReport,
+}
+
+/// The rig file for `calibration`: the measured camera and poses; each
+/// position's lights from `lights_from` (a rig file whose positions have
+/// the same names), or none.
+pub fn rig_manifest(
+    calibration: &CameraCalibration,
+    lights_from: Option<&Manifest>,
+    name: &str,
+) -> Manifest {
+    Manifest {
+        units: "m".into(),
+        name: name.into(),
+        created: matscan_scan::time::rfc3339_now(),
+        camera: calibration.camera,
+        positions: calibration
+            .camera_to_world
+            .iter()
+            .map(|(position, camera_to_world)| Position {
+                name: position.clone(),
+                camera_to_world: *camera_to_world,
+                lights: lights_from
+                    .and_then(|m| m.position(position))
+                    .map(|p| p.lights.clone())
+                    .unwrap_or_default(),
+                captures: Vec::new(),
+                white_reference_mask: None,
+            })
+            .collect(),
+    }
+}
+
+/// Writes the report and, when the calibration was accepted, the rig file
+/// into `out_dir`; returns the rig file's path, or `None` when refused.
+pub fn write_calibration(
+    out_dir: &Path,
+    calibration: &CameraCalibration,
+    lights_from: Option<(&Path, &Manifest)>,
+) -> Result<Option<PathBuf>, RigcalError> {
+    std::fs::create_dir_all(out_dir).map_err(|e| {
+        RigcalError::Scan(matscan_scan::ScanError::Io {
+            path: out_dir.to_path_buf(),
+            source: e,
+        })
+    })?;
+    let mut missing = vec!["projector".to_string()];
+    if lights_from.is_none() {
+        missing.insert(0, "lights".to_string());
+    }
+    let report = ReportFile {
+        format: "matscan-calib-report/1",
+        missing,
+        lights_from: lights_from.map(|(p, _)| p.to_path_buf()),
+        camera: &calibration.report,
+    };
+    let text = toml::to_string(&report).unwrap_or_default();
+    write_atomic(&out_dir.join(REPORT_FILE), text.as_bytes())?;
+    if !calibration.report.accepted {
+        return Ok(None);
+    }
+    let rig = rig_manifest(
+        calibration,
+        lights_from.map(|(_, m)| m),
+        "rig calibrated from photos",
+    );
+    let path = out_dir.join(RIG_FILE);
+    write_atomic(&path, rig.to_toml().as_bytes())?;
+    Ok(Some(path))
+}

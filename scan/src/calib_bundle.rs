@@ -1,0 +1,357 @@
+//! The calibration bundle, format `matscan-calib/1`: the photos a rig takes
+//! of a printed board so that its cameras can be calibrated from them.
+//!
+//! A folder with `calib.toml` and the photos it lists:
+//!
+//! ```toml
+//! format = "matscan-calib/1"
+//! units = "m"
+//!
+//! [board]                       # a printed chessboard
+//! kind = "chessboard"
+//! inner_corners = [9, 6]        # corners where four squares meet: columns, rows
+//! square = 0.06                 # edge of one square, in `units`
+//! # where the board lies in world space in its reference placement (board
+//! # frame: origin at inner corner (0, 0), x along the columns, y along the
+//! # rows, z = x cross y into the board); row-major 4x4
+//! reference_to_world = [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1]
+//!
+//! [[position]]
+//! name = "p0"
+//!   [[position.shot]]
+//!   file = "p0/board-00.exr"    # linear RGB, as scan photos
+//!   reference = true            # the board at its reference placement
+//!   [[position.shot]]
+//!   file = "p0/board-01.exr"    # the board anywhere else in view
+//! ```
+//!
+//! Every position needs one reference shot: the board resting at the same
+//! place for every position, which ties the camera's pose at each position
+//! to the world frame. The other shots only constrain the intrinsics, so
+//! the board may be held anywhere for them.
+//!
+//! Boundaries: the format only; detection and solving are the rig
+//! calibration crate's.
+
+use crate::error::ScanError;
+use glam::{DMat4, DVec3};
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// The format string of `calib.toml`.
+pub const CALIB_FORMAT: &str = "matscan-calib/1";
+/// The manifest's file name inside a calibration bundle.
+pub const CALIB_MANIFEST: &str = "calib.toml";
+
+/// A printed chessboard: its inner corners and square size.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Chessboard {
+    /// Inner corners along a row (columns) and along a column (rows); each
+    /// at least 3, and different, so the board's orientation is unambiguous
+    /// up to a half turn.
+    pub cols: u32,
+    pub rows: u32,
+    /// Edge of one square, in the bundle's units.
+    pub square: f64,
+}
+
+impl Chessboard {
+    /// The board-frame position of inner corner (`i` along the columns,
+    /// `j` along the rows).
+    pub fn corner(&self, i: u32, j: u32) -> DVec3 {
+        DVec3::new(f64::from(i) * self.square, f64::from(j) * self.square, 0.0)
+    }
+
+    pub fn corner_count(&self) -> usize {
+        self.cols as usize * self.rows as usize
+    }
+
+    /// Squares along a row and along a column (one more than the corners).
+    pub fn squares(&self) -> (u32, u32) {
+        (self.cols + 1, self.rows + 1)
+    }
+}
+
+/// One photo of the board.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Shot {
+    /// Relative to the bundle folder.
+    pub file: PathBuf,
+    /// The board at its reference placement.
+    pub reference: bool,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct CalibPosition {
+    pub name: String,
+    pub shots: Vec<Shot>,
+}
+
+/// A validated `calib.toml`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CalibManifest {
+    pub units: String,
+    pub board: Chessboard,
+    /// Board frame to world at the reference placement.
+    pub reference_to_world: DMat4,
+    pub positions: Vec<CalibPosition>,
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawManifest {
+    format: String,
+    #[serde(default = "default_units")]
+    units: String,
+    board: RawBoard,
+    #[serde(rename = "position", default)]
+    positions: Vec<RawPosition>,
+}
+
+fn default_units() -> String {
+    "m".into()
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawBoard {
+    kind: String,
+    inner_corners: [u32; 2],
+    square: f64,
+    reference_to_world: [f64; 16],
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawPosition {
+    name: String,
+    #[serde(rename = "shot", default)]
+    shots: Vec<RawShot>,
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawShot {
+    file: PathBuf,
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    reference: bool,
+}
+
+impl CalibManifest {
+    /// Reads and validates `calib.toml` in `dir`.
+    pub fn read(dir: &Path) -> Result<CalibManifest, ScanError> {
+        let path = dir.join(CALIB_MANIFEST);
+        let text = std::fs::read_to_string(&path).map_err(|e| ScanError::io(&path, e))?;
+        Self::parse(&text, &path)
+    }
+
+    /// Parses `calib.toml` text; `path` names the file in errors.
+    pub fn parse(text: &str, path: &Path) -> Result<CalibManifest, ScanError> {
+        let raw: RawManifest =
+            toml::from_str(text).map_err(|e| ScanError::format(path, e.to_string()))?;
+        let invalid = |key: &str, expected: &str| ScanError::Invalid {
+            path: path.to_path_buf(),
+            key: key.into(),
+            expected: expected.into(),
+        };
+        if raw.format != CALIB_FORMAT {
+            return Err(invalid("format", &format!("expected \"{CALIB_FORMAT}\"")));
+        }
+        if raw.board.kind != "chessboard" {
+            return Err(invalid(
+                "board.kind",
+                "expected \"chessboard\" (the only board this version reads)",
+            ));
+        }
+        let [cols, rows] = raw.board.inner_corners;
+        if cols < 3 || rows < 3 || cols == rows {
+            return Err(invalid(
+                "board.inner_corners",
+                "expected two different counts of at least 3 (columns, rows), so the \
+                 board's orientation can be told",
+            ));
+        }
+        if !(raw.board.square.is_finite() && raw.board.square > 0.0) {
+            return Err(invalid("board.square", "expected a positive length"));
+        }
+        let reference_to_world = crate::camera::mat4_from_row_major(&raw.board.reference_to_world);
+        if !rigid(&reference_to_world) {
+            return Err(invalid(
+                "board.reference_to_world",
+                "expected a rigid transform (rotation and translation, last row 0 0 0 1)",
+            ));
+        }
+        if raw.positions.is_empty() {
+            return Err(invalid("position", "expected at least one [[position]]"));
+        }
+        let mut positions = Vec::with_capacity(raw.positions.len());
+        for (k, p) in raw.positions.into_iter().enumerate() {
+            if p.name.is_empty() || positions.iter().any(|q: &CalibPosition| q.name == p.name) {
+                return Err(invalid(
+                    &format!("position[{k}].name"),
+                    "expected a unique, non-empty name",
+                ));
+            }
+            let references = p.shots.iter().filter(|s| s.reference).count();
+            if references != 1 {
+                return Err(invalid(
+                    &format!("position[{k}].shot"),
+                    &format!(
+                        "expected exactly one shot with `reference = true` at position \
+                         {} (found {references}): the board at its reference placement",
+                        p.name
+                    ),
+                ));
+            }
+            for (s, shot) in p.shots.iter().enumerate() {
+                if shot.file.is_absolute()
+                    || shot
+                        .file
+                        .components()
+                        .any(|c| matches!(c, std::path::Component::ParentDir))
+                {
+                    return Err(invalid(
+                        &format!("position[{k}].shot[{s}].file"),
+                        "expected a path inside the bundle folder",
+                    ));
+                }
+            }
+            positions.push(CalibPosition {
+                name: p.name,
+                shots: p
+                    .shots
+                    .into_iter()
+                    .map(|s| Shot {
+                        file: s.file,
+                        reference: s.reference,
+                    })
+                    .collect(),
+            });
+        }
+        Ok(CalibManifest {
+            units: raw.units,
+            board: Chessboard {
+                cols,
+                rows,
+                square: raw.board.square,
+            },
+            reference_to_world,
+            positions,
+        })
+    }
+
+    /// The manifest as `calib.toml` text.
+    pub fn to_toml(&self) -> String {
+        let raw = RawManifest {
+            format: CALIB_FORMAT.into(),
+            units: self.units.clone(),
+            board: RawBoard {
+                kind: "chessboard".into(),
+                inner_corners: [self.board.cols, self.board.rows],
+                square: self.board.square,
+                reference_to_world: crate::camera::mat4_to_row_major(&self.reference_to_world),
+            },
+            positions: self
+                .positions
+                .iter()
+                .map(|p| RawPosition {
+                    name: p.name.clone(),
+                    shots: p
+                        .shots
+                        .iter()
+                        .map(|s| RawShot {
+                            file: s.file.clone(),
+                            reference: s.reference,
+                        })
+                        .collect(),
+                })
+                .collect(),
+        };
+        // Plain data with string keys: serializing cannot fail.
+        toml::to_string(&raw).unwrap_or_default()
+    }
+}
+
+/// A finite transform whose upper 3x3 is a rotation and whose last row is
+/// `0 0 0 1`.
+fn rigid(m: &DMat4) -> bool {
+    let r = glam::DMat3::from_mat4(*m);
+    let last = m.row(3);
+    m.to_cols_array().iter().all(|v| v.is_finite())
+        && (last - glam::DVec4::new(0.0, 0.0, 0.0, 1.0))
+            .abs()
+            .max_element()
+            < 1e-9
+        && (r.transpose() * r - glam::DMat3::IDENTITY)
+            .to_cols_array()
+            .iter()
+            .all(|v| v.abs() < 1e-6)
+        && r.determinant() > 0.0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const GOOD: &str = r#"
+format = "matscan-calib/1"
+[board]
+kind = "chessboard"
+inner_corners = [9, 6]
+square = 0.05
+reference_to_world = [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1]
+[[position]]
+name = "p0"
+  [[position.shot]]
+  file = "p0/board-00.exr"
+  reference = true
+  [[position.shot]]
+  file = "p0/board-01.exr"
+"#;
+
+    #[test]
+    fn a_written_manifest_reads_back_the_same() {
+        let m = CalibManifest::parse(GOOD, Path::new("calib.toml")).unwrap();
+        assert_eq!(m.board.cols, 9);
+        assert_eq!(m.board.corner(2, 1), DVec3::new(0.1, 0.05, 0.0));
+        assert_eq!(m.positions[0].shots.len(), 2);
+        let again = CalibManifest::parse(&m.to_toml(), Path::new("calib.toml")).unwrap();
+        assert_eq!(again, m);
+    }
+
+    fn error_of(text: &str) -> String {
+        CalibManifest::parse(text, Path::new("/x/calib.toml"))
+            .unwrap_err()
+            .to_string()
+    }
+
+    #[test]
+    fn a_square_board_is_refused_as_ambiguous() {
+        let e = error_of(&GOOD.replace("[9, 6]", "[6, 6]"));
+        assert!(e.contains("board.inner_corners"), "{e}");
+    }
+
+    #[test]
+    fn a_position_without_one_reference_shot_is_named() {
+        let e = error_of(&GOOD.replace("reference = true", ""));
+        assert!(e.contains("position[0].shot") && e.contains("p0"), "{e}");
+    }
+
+    #[test]
+    fn a_non_rigid_reference_pose_is_refused() {
+        let e = error_of(&GOOD.replace("[1,0,0,0,", "[2,0,0,0,"));
+        assert!(e.contains("reference_to_world"), "{e}");
+    }
+
+    #[test]
+    fn a_shot_outside_the_folder_is_refused() {
+        let e = error_of(&GOOD.replace("p0/board-01.exr", "../board.exr"));
+        assert!(e.contains("shot[1].file"), "{e}");
+    }
+
+    #[test]
+    fn an_unknown_key_is_named() {
+        let e = error_of(&GOOD.replace("square = 0.05", "square = 0.05\nsquares = 3"));
+        assert!(e.contains("squares"), "{e}");
+    }
+}

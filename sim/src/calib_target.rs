@@ -1,0 +1,321 @@
+//! Calibration targets on the simulated rig: a printed chessboard as a
+//! scene, posed in front of a rig's camera and rendered by the same path
+//! tracer as the scans, written as a `matscan-calib/1` bundle together with
+//! the rig that took it (`truth-rig.toml`), so that rig calibration from
+//! photos can be checked against the truth.
+//!
+//! The board is a flat, matte, two-sided quad: black and white squares
+//! (albedo 0.03 and 0.8) in a white margin of half a square, textured at
+//! [`TEXELS_PER_SQUARE`] so that its edges are sharp at any camera size
+//! this crate renders. It is lit by both flashes and the environment.
+//!
+//! Boundaries: writes bundles through `matscan-scan`'s calibration format;
+//! finds no corners and solves nothing.
+
+use crate::render::{CaptureSpec, Environment, RenderOptions, Renderer, SimError};
+use crate::scene::{
+    random_rig, rig_to_manifest_lights, EnvSource, EnvSpec, MaterialField, Rig, RigOptions, Scene,
+    Texture,
+};
+use glam::{DMat3, DMat4, DQuat, DVec3, Vec2, Vec3};
+use matscan_scan::atomic::{write_atomic, PendingDir};
+use matscan_scan::calib_bundle::{CalibManifest, CalibPosition, Chessboard, Shot, CALIB_MANIFEST};
+use matscan_scan::image_io::write_rgb_exr;
+use matscan_scan::raster::Raster;
+use matscan_scan::{Manifest, Mesh, Position, Precision};
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg64;
+use std::path::{Path, PathBuf};
+
+/// Texture resolution of the board: texels along one square's edge.
+pub const TEXELS_PER_SQUARE: u32 = 32;
+/// The rig file the simulator writes beside the photos: the truth.
+pub const TRUTH_RIG: &str = "truth-rig.toml";
+const WHITE: f32 = 0.8;
+const BLACK: f32 = 0.03;
+
+/// What to render.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BoardBundleOptions {
+    /// Camera image size, pixels.
+    pub width: u32,
+    pub height: u32,
+    /// Rig positions.
+    pub positions: usize,
+    /// Shots per position, the reference shot included (at least 1).
+    pub shots_per_position: usize,
+    /// Inner corners of the board (columns, rows).
+    pub inner_corners: (u32, u32),
+    /// The true camera's distortion (OpenCV k1 k2 p1 p2 k3).
+    pub distortion: [f64; 5],
+    /// Seeds the rig, the board poses and the renders.
+    pub seed: u64,
+    /// Paths per pixel.
+    pub samples: u32,
+}
+
+impl Default for BoardBundleOptions {
+    fn default() -> Self {
+        BoardBundleOptions {
+            width: 1024,
+            height: 1024,
+            positions: 3,
+            shots_per_position: 8,
+            inner_corners: (9, 6),
+            distortion: [-0.08, 0.05, 0.0005, -0.0003, 0.0],
+            seed: 1,
+            samples: 16,
+        }
+    }
+}
+
+/// The board's scene: its mesh at `board_to_world` and its printed squares.
+pub fn board_scene(board: &Chessboard, board_to_world: DMat4, rig: &Rig) -> Scene {
+    let s = board.square;
+    let (sq_x, sq_y) = board.squares();
+    // The print: outer squares from -s to cols*s, plus half a square of
+    // white margin on every side.
+    let (x0, y0) = (-1.5 * s, -1.5 * s);
+    let (x1, y1) = ((f64::from(sq_x) - 0.5) * s, (f64::from(sq_y) - 0.5) * s);
+    let corner = |x: f64, y: f64| {
+        board_to_world
+            .transform_point3(DVec3::new(x, y, 0.0))
+            .as_vec3()
+    };
+    let mesh = Mesh {
+        positions: vec![
+            corner(x0, y0),
+            corner(x1, y0),
+            corner(x1, y1),
+            corner(x0, y1),
+        ],
+        normals: None,
+        // UV origin bottom left; board y runs down the print.
+        uvs: Some(vec![
+            Vec2::new(0.0, 1.0),
+            Vec2::new(1.0, 1.0),
+            Vec2::new(1.0, 0.0),
+            Vec2::new(0.0, 0.0),
+        ]),
+        // Wound so the geometric normal faces -z (the printed side).
+        triangles: vec![[0, 2, 1], [0, 3, 2]],
+    };
+    let t = TEXELS_PER_SQUARE;
+    let (w, h) = ((sq_x + 1) * t, (sq_y + 1) * t);
+    // Texel (c, r) with row 0 on top = board y smallest; the margin is half
+    // a square, so squares start at texel t / 2.
+    let print = Raster::from_fn(w, h, |c, r| {
+        let (c, r) = (c as i64 - i64::from(t / 2), r as i64 - i64::from(t / 2));
+        let inside = c >= 0 && r >= 0 && c < i64::from(sq_x * t) && r < i64::from(sq_y * t);
+        let black = inside && ((c / i64::from(t)) + (r / i64::from(t))) % 2 == 0;
+        [if black { BLACK } else { WHITE }; 3]
+    });
+    Scene {
+        name: "chessboard".into(),
+        kind: "chessboard".into(),
+        geometry: "board".into(),
+        mesh,
+        material: MaterialField {
+            basecolor: Texture::Map(print),
+            roughness: Texture::Constant(0.7),
+            metallic: Texture::Constant(0.0),
+            transmission: Texture::Constant(0.0),
+            subsurface: Texture::Constant(0.0),
+            subsurface_radius: Vec3::splat(0.01),
+        },
+        environment: EnvSpec {
+            source: EnvSource::Procedural { seed: 7 },
+            strength: 0.3,
+            rotation: 0.0,
+        },
+        rig: rig.clone(),
+    }
+}
+
+/// The square that makes the board, margin included, about half as wide
+/// as the view at the rig's working distance, rounded to a millimetre.
+pub fn board_for(rig: &Rig, inner_corners: (u32, u32)) -> Chessboard {
+    let k = &rig.intrinsics;
+    let distance = rig
+        .positions
+        .first()
+        .map(|p| p.camera_to_world.w_axis.truncate().length())
+        .unwrap_or(1.5);
+    let view = distance * f64::from(k.width) / k.fx;
+    let square = (0.5 * view / f64::from(inner_corners.0 + 2) * 1000.0).round() / 1000.0;
+    Chessboard {
+        cols: inner_corners.0,
+        rows: inner_corners.1,
+        square: square.max(0.001),
+    }
+}
+
+/// The reference placement: the board centred on the world origin, where
+/// the object stands, its printed side towards the base position's camera
+/// (-Z), columns along -X and rows along -Y as that camera sees them.
+pub fn reference_placement(board: &Chessboard) -> DMat4 {
+    let rotation = DMat3::from_cols(DVec3::NEG_X, DVec3::NEG_Y, DVec3::Z);
+    let centre = board.corner(board.cols - 1, board.rows - 1) * 0.5;
+    DMat4::from_rotation_translation(DQuat::from_mat3(&rotation), -(rotation * centre))
+}
+
+/// A random board pose in the camera frame of `camera_to_world` that keeps
+/// the whole print in view, tilted up to 40 degrees and turned in plane up
+/// to 15; `None` when no pose in 200 tries fits.
+fn random_pose(
+    rng: &mut Pcg64,
+    board: &Chessboard,
+    rig: &Rig,
+    camera_to_world: DMat4,
+) -> Option<DMat4> {
+    let k = rig.intrinsics;
+    let distance = camera_to_world.w_axis.truncate().length();
+    let (sq_x, sq_y) = board.squares();
+    let (x1, y1) = (
+        (f64::from(sq_x) - 0.5) * board.square,
+        (f64::from(sq_y) - 0.5) * board.square,
+    );
+    let outline = [
+        DVec3::new(-1.5 * board.square, -1.5 * board.square, 0.0),
+        DVec3::new(x1, -1.5 * board.square, 0.0),
+        DVec3::new(x1, y1, 0.0),
+        DVec3::new(-1.5 * board.square, y1, 0.0),
+    ];
+    let centre = board.corner(board.cols - 1, board.rows - 1) * 0.5;
+    for _ in 0..200 {
+        let tilt = 40f64.to_radians();
+        let rotation = DQuat::from_rotation_z(rng.gen_range(-0.26..0.26))
+            * DQuat::from_rotation_y(rng.gen_range(-tilt..tilt))
+            * DQuat::from_rotation_x(rng.gen_range(-tilt..tilt));
+        let z = distance * rng.gen_range(0.8..1.1);
+        let spread = 0.35 * z * f64::from(k.width) / k.fx;
+        let at = DVec3::new(
+            rng.gen_range(-spread..spread),
+            rng.gen_range(-spread..spread),
+            z,
+        );
+        let board_to_camera = DMat4::from_rotation_translation(rotation, at - rotation * centre);
+        let fits = outline.iter().all(|&p| {
+            let pc = board_to_camera.transform_point3(p);
+            k.project_camera_point(pc).is_some_and(|px| {
+                let m = 0.03 * f64::from(k.width.min(k.height));
+                px.x > m
+                    && px.y > m
+                    && px.x < f64::from(k.width) - m
+                    && px.y < f64::from(k.height) - m
+            })
+        });
+        if fits {
+            return Some(camera_to_world * board_to_camera);
+        }
+    }
+    None
+}
+
+/// Renders the board at every shot of every position of a random rig and
+/// writes the bundle at `out_dir` (which must not exist), with the true rig
+/// beside it as `truth-rig.toml`. Returns the manifest written.
+pub fn write_board_bundle(
+    opts: &BoardBundleOptions,
+    out_dir: &Path,
+) -> Result<CalibManifest, SimError> {
+    if opts.samples == 0 || opts.shots_per_position == 0 {
+        return Err(SimError::Options(
+            "samples and shots per position must be at least 1".into(),
+        ));
+    }
+    let mut rng = Pcg64::seed_from_u64(opts.seed);
+    let mut rig = random_rig(
+        &mut rng,
+        RigOptions {
+            width: opts.width,
+            height: opts.height,
+            positions: opts.positions,
+        },
+    );
+    rig.intrinsics.distortion = opts.distortion;
+    let board = board_for(&rig, opts.inner_corners);
+    let reference = reference_placement(&board);
+    let env = Environment::from_spec(&board_scene(&board, reference, &rig).environment)?;
+    let ropts = RenderOptions {
+        samples: opts.samples,
+        seed: opts.seed,
+        ..RenderOptions::default()
+    };
+    let capture = [CaptureSpec::new("board", &["flash0", "flash1"], None)];
+    let pending = PendingDir::create(out_dir)?;
+    let mut positions = Vec::new();
+    for (p, position) in rig.positions.iter().enumerate() {
+        std::fs::create_dir_all(pending.path().join(&position.name)).map_err(|e| SimError::Io {
+            path: pending.path().join(&position.name),
+            source: e,
+        })?;
+        let mut shots = Vec::new();
+        for s in 0..opts.shots_per_position {
+            let placement = if s == 0 {
+                reference
+            } else {
+                random_pose(&mut rng, &board, &rig, position.camera_to_world).ok_or_else(|| {
+                    SimError::Options(format!(
+                        "no board pose fits the view at position {}",
+                        position.name
+                    ))
+                })?
+            };
+            let scene = board_scene(&board, placement, &rig);
+            let renderer = Renderer::with_environment(&scene, env.clone());
+            let photo = renderer
+                .render_position(p, &capture, &ropts)?
+                .photos
+                .remove(0);
+            let file = PathBuf::from(&position.name).join(format!("board-{s:02}.exr"));
+            write_rgb_exr(&pending.path().join(&file), &photo, Precision::Half)?;
+            shots.push(Shot {
+                file,
+                reference: s == 0,
+            });
+        }
+        positions.push(CalibPosition {
+            name: position.name.clone(),
+            shots,
+        });
+    }
+    let manifest = CalibManifest {
+        units: "m".into(),
+        board,
+        reference_to_world: reference,
+        positions,
+    };
+    write_atomic(
+        &pending.path().join(CALIB_MANIFEST),
+        manifest.to_toml().as_bytes(),
+    )?;
+    write_atomic(
+        &pending.path().join(TRUTH_RIG),
+        truth_rig(&rig).to_toml().as_bytes(),
+    )?;
+    pending.publish()?;
+    Ok(manifest)
+}
+
+/// The rig as a rig calibration file: the camera, its pose at each
+/// position and the lights, as the simulator knows them.
+pub fn truth_rig(rig: &Rig) -> Manifest {
+    Manifest {
+        units: "m".into(),
+        name: "simulated rig".into(),
+        created: matscan_scan::time::rfc3339_now(),
+        camera: rig.intrinsics,
+        positions: rig
+            .positions
+            .iter()
+            .map(|p| Position {
+                name: p.name.clone(),
+                camera_to_world: p.camera_to_world,
+                lights: rig_to_manifest_lights(p),
+                captures: Vec::new(),
+                white_reference_mask: None,
+            })
+            .collect(),
+    }
+}
