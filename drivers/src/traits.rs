@@ -176,6 +176,9 @@ impl ProjectorPattern {
                 low: level(low)?,
                 high: level(high)?,
             })),
+            // The drivers show scan patterns only; projector-calibration
+            // photos come from the simulated rig's board bundles.
+            Pattern::GrayCode { .. } => None,
         }
     }
 

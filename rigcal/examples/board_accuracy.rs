@@ -1,6 +1,6 @@
 //! Development probe: renders a board bundle on a random simulated rig,
 //! calibrates the camera from it and prints the result against the truth.
-//! `cargo run --release -p matscan-rigcal --example board_accuracy -- SIZE SHOTS SEED SAMPLES [DIR]`
+//! `cargo run --release -p matscan-rigcal --example board_accuracy -- SIZE SHOTS SEED SAMPLES [DIR [PROJECTOR_SHOTS]]`
 
 use matscan_rigcal::compare::compare;
 use matscan_rigcal::{calibrate_camera, Acceptance};
@@ -17,6 +17,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         width: size,
         height: size,
         shots_per_position: arg(2, 6) as usize,
+        projector_shots: arg(6, 6) as usize,
         seed: arg(3, 1),
         samples: arg(4, 16) as u32,
         ..BoardBundleOptions::default()
@@ -37,9 +38,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let manifest = CalibManifest::read(&dir)?;
     let t = Instant::now();
     let cal = calibrate_camera(&dir, &manifest, &Acceptance::default())?;
+    let projector = matscan_rigcal::projector::calibrate_projector(&dir, &manifest, &cal)?;
     let seconds = t.elapsed().as_secs_f64();
     let (truth, _) = Manifest::read_rig(&dir.join(TRUTH_RIG))?;
-    let measured = matscan_rigcal::write::rig_manifest(&cal, None, "probe");
+    let measured = matscan_rigcal::write::rig_manifest(&cal, projector.as_ref(), None, "probe");
     let d = compare(&measured, &truth);
     let (k, r) = (&cal.camera, &truth.camera);
     println!(
@@ -65,6 +67,24 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         cal.report.accepted,
         cal.report.problems
     );
+    println!("projector {:?}", d.projector);
+    if let Some(p) = &projector {
+        println!(
+            "projector report rms {:.3} spread {:.2} mm {:.3} deg",
+            p.report.rms_px,
+            1000.0 * p.report.pose_spread,
+            p.report.pose_spread_deg
+        );
+        for s in &p.report.shots {
+            println!(
+                "  {} corners {} bits {:?} rms {:.3}",
+                s.graycode.display(),
+                s.corners,
+                s.finest_bits,
+                s.rms_px
+            );
+        }
+    }
     for s in &cal.report.shots {
         println!(
             "  {} rms {:.3} max {:.3} tilt {:.1}",

@@ -4,7 +4,7 @@
 
 use crate::detect::{find_board, Corner};
 use crate::error::RigcalError;
-use crate::model::project;
+use crate::model::{project, Pose};
 use crate::refine::{refine, ShotPoints};
 use crate::zhang;
 use glam::{DMat4, DVec2};
@@ -103,6 +103,8 @@ pub struct CameraCalibration {
     /// Corners found and reprojected per shot, in the report's order (for
     /// the contact sheet).
     pub corners: Vec<(Vec<Corner>, Vec<DVec2>)>,
+    /// Each shot's board-to-camera pose, in the report's order.
+    pub poses: Vec<Pose>,
 }
 
 /// Every shot with its position's index, positions in order.
@@ -228,7 +230,7 @@ pub fn solve_camera(
         }
         poses.push(pose);
     }
-    let refined = refine(&start, &poses, &points);
+    let refined = refine(&start, &poses, &points, crate::refine::CAMERA_FIXED);
     Ok(judge(
         manifest, &shots, detections, &points, refined, acceptance,
     ))
@@ -348,5 +350,6 @@ fn judge(
             shots: reports,
         },
         corners: detections.into_iter().zip(reprojected).collect(),
+        poses: refined.poses,
     }
 }

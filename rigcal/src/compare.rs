@@ -3,7 +3,8 @@
 //! month's).
 
 use glam::DMat4;
-use matscan_scan::Manifest;
+use matscan_scan::camera::Intrinsics;
+use matscan_scan::{LightKind, Manifest};
 use serde::Serialize;
 
 /// Differences of `measured` from `reference`, per quantity the worst over
@@ -20,19 +21,48 @@ pub struct RigDifference {
     pub rotation_deg: f64,
     /// Positions compared.
     pub positions: usize,
+    /// The projector's figures, where both files have one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub projector: Option<ProjectorDifference>,
+}
+
+/// The projector's differences, worst over the positions.
+#[derive(Debug, Clone, Copy, Serialize, PartialEq)]
+pub struct ProjectorDifference {
+    pub focal_percent: f64,
+    pub principal_px: f64,
+    pub position: f64,
+    pub rotation_deg: f64,
+}
+
+/// A position's projector: its intrinsics and pose.
+fn projector_of(p: &matscan_scan::Position) -> Option<(Intrinsics, DMat4)> {
+    p.lights.iter().find_map(|l| match &l.kind {
+        LightKind::Projector {
+            projector_to_world,
+            intrinsics,
+        } => Some((*intrinsics, *projector_to_world)),
+        _ => None,
+    })
+}
+
+fn intrinsics_difference(m: &Intrinsics, r: &Intrinsics) -> (f64, f64) {
+    let m = m.scaled_to(r.width, r.height);
+    (
+        100.0 * ((m.fx - r.fx).abs() / r.fx).max((m.fy - r.fy).abs() / r.fy),
+        ((m.cx - r.cx).powi(2) + (m.cy - r.cy).powi(2)).sqrt(),
+    )
 }
 
 pub fn compare(measured: &Manifest, reference: &Manifest) -> RigDifference {
-    let (m, r) = (&measured.camera, &reference.camera);
-    let m = m.scaled_to(r.width, r.height);
-    let focal_percent = 100.0 * ((m.fx - r.fx).abs() / r.fx).max((m.fy - r.fy).abs() / r.fy);
-    let principal_px = ((m.cx - r.cx).powi(2) + (m.cy - r.cy).powi(2)).sqrt();
+    let (focal_percent, principal_px) = intrinsics_difference(&measured.camera, &reference.camera);
     let mut out = RigDifference {
         focal_percent,
         principal_px,
         position: 0.0,
         rotation_deg: 0.0,
         positions: 0,
+        projector: None,
     };
     for p in &reference.positions {
         let Some(q) = measured.position(&p.name) else {
@@ -42,6 +72,21 @@ pub fn compare(measured: &Manifest, reference: &Manifest) -> RigDifference {
         out.position = out.position.max(dp);
         out.rotation_deg = out.rotation_deg.max(dr);
         out.positions += 1;
+        if let (Some((km, tm)), Some((kr, tr))) = (projector_of(q), projector_of(p)) {
+            let (focal_percent, principal_px) = intrinsics_difference(&km, &kr);
+            let (dp, dr) = pose_difference(&tm, &tr);
+            let prev = out.projector.unwrap_or(ProjectorDifference {
+                focal_percent,
+                principal_px,
+                position: 0.0,
+                rotation_deg: 0.0,
+            });
+            out.projector = Some(ProjectorDifference {
+                position: prev.position.max(dp),
+                rotation_deg: prev.rotation_deg.max(dr),
+                ..prev
+            });
+        }
     }
     out
 }

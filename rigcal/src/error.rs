@@ -46,6 +46,9 @@ pub enum RigcalError {
         tilt_deg: f64,
         limit_deg: f64,
     },
+    /// A shot's Gray codes cannot be read.
+    #[error("{}: Gray codes: {reason}", path.display())]
+    GrayCode { path: PathBuf, reason: String },
     /// The shots do not determine the camera (all boards parallel, say).
     #[error("the shots do not determine the camera: {0}")]
     Degenerate(String),

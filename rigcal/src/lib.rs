@@ -35,7 +35,9 @@ pub mod compare;
 pub mod detect;
 pub mod error;
 pub mod model;
+pub mod projector;
 pub mod refine;
+pub mod sheet;
 pub mod write;
 pub mod zhang;
 

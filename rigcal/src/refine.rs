@@ -35,10 +35,12 @@ pub struct Refined {
 }
 
 const PER_POINT: usize = INTRINSIC_COUNT + POSE_COUNT;
-/// k3, held at its start (0): it shapes only the field's far edge, where a
-/// board rarely reaches, and elsewhere trades off against k2 (OpenCV's
-/// `CALIB_FIX_K3` for ordinary lenses).
-const FIXED: [usize; 1] = [8];
+/// The camera's intrinsics held at their start: k3 (0), which shapes only
+/// the field's far edge, where a board rarely reaches, and elsewhere trades
+/// off against k2 (OpenCV's `CALIB_FIX_K3` for ordinary lenses).
+pub const CAMERA_FIXED: &[usize] = &[8];
+/// A projector's: its whole distortion (the contract's projector has none).
+pub const PROJECTOR_FIXED: &[usize] = &[4, 5, 6, 7, 8];
 const MAX_ITERATIONS: usize = 200;
 
 struct Problem<'a> {
@@ -123,7 +125,13 @@ impl Problem<'_> {
 }
 
 /// Refines `camera` and `poses` (one per shot) against the shots' corners.
-pub fn refine(camera: &Intrinsics, poses: &[Pose], shots: &[ShotPoints]) -> Refined {
+/// `fixed` lists intrinsics (by solver index) held at their start.
+pub fn refine(
+    camera: &Intrinsics,
+    poses: &[Pose],
+    shots: &[ShotPoints],
+    fixed: &[usize],
+) -> Refined {
     let problem = Problem {
         shots,
         width: camera.width,
@@ -140,13 +148,13 @@ pub fn refine(camera: &Intrinsics, poses: &[Pose], shots: &[ShotPoints]) -> Refi
     while iterations < MAX_ITERATIONS {
         iterations += 1;
         let mut damped = jtj.clone();
-        for &k in &FIXED {
+        for &k in fixed {
             damped.row_mut(k).fill(0.0);
             damped.column_mut(k).fill(0.0);
             damped[(k, k)] = 1.0;
         }
         let mut rhs = jtr.clone();
-        for &k in &FIXED {
+        for &k in fixed {
             rhs[k] = 0.0;
         }
         for k in 0..damped.nrows() {
@@ -178,14 +186,20 @@ pub fn refine(camera: &Intrinsics, poses: &[Pose], shots: &[ShotPoints]) -> Refi
     let residuals: usize = shots.iter().map(|s| 2 * s.board.len()).sum();
     let dof = residuals.saturating_sub(problem.unknowns()).max(1);
     let variance = cost / dof as f64;
-    for &k in &FIXED {
+    for &k in fixed {
         jtj.row_mut(k).fill(0.0);
         jtj.column_mut(k).fill(0.0);
         jtj[(k, k)] = 1.0;
     }
-    let sigma = jtj
-        .try_inverse()
-        .map(|inverse| std::array::from_fn(|k| (inverse[(k, k)].max(0.0) * variance).sqrt()));
+    let sigma = jtj.try_inverse().map(|inverse| {
+        std::array::from_fn(|k| {
+            if fixed.contains(&k) {
+                0.0
+            } else {
+                (inverse[(k, k)].max(0.0) * variance).sqrt()
+            }
+        })
+    });
     Refined {
         camera: unpack_intrinsics(&params, camera.width, camera.height),
         poses: (0..shots.len())

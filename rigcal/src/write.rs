@@ -5,8 +5,9 @@
 
 use crate::camera::{CameraCalibration, CameraReport};
 use crate::error::RigcalError;
+use crate::projector::{ProjectorCalibration, ProjectorReport};
 use matscan_scan::atomic::write_atomic;
-use matscan_scan::{Manifest, Position};
+use matscan_scan::{Light, LightKind, Manifest, Position};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
@@ -26,13 +27,17 @@ struct ReportFile<'a> {
     #[serde(skip_serializing_if = "Option::is_none")]
     lights_from: Option<PathBuf>,
     camera: &'a CameraReport,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    projector: Option<&'a ProjectorReport>,
 }
 
-/// The rig file for `calibration`: the measured camera and poses; each
-/// position's lights from `lights_from` (a rig file whose positions have
-/// the same names), or none.
+/// The rig file for `calibration`: the measured camera and poses, and the
+/// measured projector where there is one; each position's other lights
+/// from `lights_from` (a rig file whose positions have the same names), or
+/// none. The projector keeps its colour and intensity from `lights_from`.
 pub fn rig_manifest(
     calibration: &CameraCalibration,
+    projector: Option<&ProjectorCalibration>,
     lights_from: Option<&Manifest>,
     name: &str,
 ) -> Manifest {
@@ -44,15 +49,37 @@ pub fn rig_manifest(
         positions: calibration
             .camera_to_world
             .iter()
-            .map(|(position, camera_to_world)| Position {
-                name: position.clone(),
-                camera_to_world: *camera_to_world,
-                lights: lights_from
+            .enumerate()
+            .map(|(k, (position, camera_to_world))| {
+                let mut lights: Vec<Light> = lights_from
                     .and_then(|m| m.position(position))
                     .map(|p| p.lights.clone())
-                    .unwrap_or_default(),
-                captures: Vec::new(),
-                white_reference_mask: None,
+                    .unwrap_or_default();
+                if let Some(pc) = projector {
+                    let measured = LightKind::Projector {
+                        projector_to_world: pc.projector_to_world[k].1,
+                        intrinsics: pc.intrinsics,
+                    };
+                    match lights
+                        .iter_mut()
+                        .find(|l| matches!(l.kind, LightKind::Projector { .. }))
+                    {
+                        Some(light) => light.kind = measured,
+                        None => lights.push(Light {
+                            name: "projector".into(),
+                            kind: measured,
+                            color: [1.0; 3],
+                            intensity: None,
+                        }),
+                    }
+                }
+                Position {
+                    name: position.clone(),
+                    camera_to_world: *camera_to_world,
+                    lights,
+                    captures: Vec::new(),
+                    white_reference_mask: None,
+                }
             })
             .collect(),
     }
@@ -63,6 +90,7 @@ pub fn rig_manifest(
 pub fn write_calibration(
     out_dir: &Path,
     calibration: &CameraCalibration,
+    projector: Option<&ProjectorCalibration>,
     lights_from: Option<(&Path, &Manifest)>,
 ) -> Result<Option<PathBuf>, RigcalError> {
     std::fs::create_dir_all(out_dir).map_err(|e| {
@@ -71,15 +99,19 @@ pub fn write_calibration(
             source: e,
         })
     })?;
-    let mut missing = vec!["projector".to_string()];
+    let mut missing = Vec::new();
     if lights_from.is_none() {
-        missing.insert(0, "lights".to_string());
+        missing.push("lights".to_string());
+    }
+    if projector.is_none() {
+        missing.push("projector".to_string());
     }
     let report = ReportFile {
         format: "matscan-calib-report/1",
         missing,
         lights_from: lights_from.map(|(p, _)| p.to_path_buf()),
         camera: &calibration.report,
+        projector: projector.map(|p| &p.report),
     };
     let text = toml::to_string(&report).unwrap_or_default();
     write_atomic(&out_dir.join(REPORT_FILE), text.as_bytes())?;
@@ -88,6 +120,7 @@ pub fn write_calibration(
     }
     let rig = rig_manifest(
         calibration,
+        projector,
         lights_from.map(|(_, m)| m),
         "rig calibrated from photos",
     );

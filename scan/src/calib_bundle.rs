@@ -25,6 +25,22 @@
 //!   file = "p0/board-01.exr"    # the board anywhere else in view
 //! ```
 //!
+//! A shot may also carry the projector's Gray codes on the same board
+//! (`graycode = "p0/projector-00"`: a folder with `columns-BB.exr`,
+//! `columns-BB-inv.exr`, `rows-BB.exr` and `rows-BB-inv.exr` for every bit
+//! `BB` of the projector's columns and rows, 00 the finest), which makes the
+//! projector calibratable as an inverse camera; the projector's size is then
+//! given once:
+//!
+//! ```toml
+//! [projector]
+//! width = 1024
+//! height = 768
+//! ```
+//!
+//! The projector is taken to be fixed to the camera (one scan head), so
+//! Gray-code shots at any position calibrate it for every position.
+//!
 //! Every position needs one reference shot: the board resting at the same
 //! place for every position, which ties the camera's pose at each position
 //! to the world frame. The other shots only constrain the intrinsics, so
@@ -34,6 +50,7 @@
 //! calibration crate's.
 
 use crate::error::ScanError;
+use crate::manifest::GrayAxis;
 use glam::{DMat4, DVec3};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -79,6 +96,35 @@ pub struct Shot {
     pub file: PathBuf,
     /// The board at its reference placement.
     pub reference: bool,
+    /// Folder of the projector's Gray-code photos of this board pose.
+    pub graycode: Option<PathBuf>,
+}
+
+/// The projector's image size, pixels.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ProjectorSize {
+    pub width: u32,
+    pub height: u32,
+}
+
+impl ProjectorSize {
+    /// Gray-code bits along `axis`: enough to number every column or row.
+    pub fn bits(&self, axis: GrayAxis) -> u32 {
+        let n = match axis {
+            GrayAxis::Columns => self.width,
+            GrayAxis::Rows => self.height,
+        };
+        u32::BITS - n.max(2).saturating_sub(1).leading_zeros()
+    }
+}
+
+/// The file of one Gray-code photo inside a shot's `graycode` folder.
+pub fn graycode_file(axis: GrayAxis, bit: u32, inverted: bool) -> String {
+    format!(
+        "{}-{bit:02}{}.exr",
+        axis.name(),
+        if inverted { "-inv" } else { "" }
+    )
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -95,6 +141,8 @@ pub struct CalibManifest {
     /// Board frame to world at the reference placement.
     pub reference_to_world: DMat4,
     pub positions: Vec<CalibPosition>,
+    /// Present when some shot has Gray codes.
+    pub projector: Option<ProjectorSize>,
 }
 
 #[derive(Debug, Serialize, Deserialize)]
@@ -104,6 +152,8 @@ struct RawManifest {
     #[serde(default = "default_units")]
     units: String,
     board: RawBoard,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    projector: Option<RawProjector>,
     #[serde(rename = "position", default)]
     positions: Vec<RawPosition>,
 }
@@ -123,6 +173,13 @@ struct RawBoard {
 
 #[derive(Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+struct RawProjector {
+    width: u32,
+    height: u32,
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 struct RawPosition {
     name: String,
     #[serde(rename = "shot", default)]
@@ -135,6 +192,8 @@ struct RawShot {
     file: PathBuf,
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     reference: bool,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    graycode: Option<PathBuf>,
 }
 
 impl CalibManifest {
@@ -181,6 +240,14 @@ impl CalibManifest {
                 "expected a rigid transform (rotation and translation, last row 0 0 0 1)",
             ));
         }
+        if let Some(p) = &raw.projector {
+            if p.width < 2 || p.height < 2 {
+                return Err(invalid(
+                    "projector",
+                    "expected a width and height of at least 2 pixels",
+                ));
+            }
+        }
         if raw.positions.is_empty() {
             return Err(invalid("position", "expected at least one [[position]]"));
         }
@@ -204,16 +271,31 @@ impl CalibManifest {
                 ));
             }
             for (s, shot) in p.shots.iter().enumerate() {
-                if shot.file.is_absolute()
-                    || shot
-                        .file
-                        .components()
-                        .any(|c| matches!(c, std::path::Component::ParentDir))
-                {
+                let inside = |f: &Path| {
+                    !f.is_absolute()
+                        && !f
+                            .components()
+                            .any(|c| matches!(c, std::path::Component::ParentDir))
+                };
+                if !inside(&shot.file) {
                     return Err(invalid(
                         &format!("position[{k}].shot[{s}].file"),
                         "expected a path inside the bundle folder",
                     ));
+                }
+                if let Some(g) = &shot.graycode {
+                    if !inside(g) {
+                        return Err(invalid(
+                            &format!("position[{k}].shot[{s}].graycode"),
+                            "expected a folder inside the bundle folder",
+                        ));
+                    }
+                    if raw.projector.is_none() {
+                        return Err(invalid(
+                            "projector",
+                            "expected [projector] width and height: a shot has Gray codes",
+                        ));
+                    }
                 }
             }
             positions.push(CalibPosition {
@@ -224,6 +306,7 @@ impl CalibManifest {
                     .map(|s| Shot {
                         file: s.file,
                         reference: s.reference,
+                        graycode: s.graycode,
                     })
                     .collect(),
             });
@@ -237,6 +320,10 @@ impl CalibManifest {
             },
             reference_to_world,
             positions,
+            projector: raw.projector.map(|p| ProjectorSize {
+                width: p.width,
+                height: p.height,
+            }),
         })
     }
 
@@ -251,6 +338,10 @@ impl CalibManifest {
                 square: self.board.square,
                 reference_to_world: crate::camera::mat4_to_row_major(&self.reference_to_world),
             },
+            projector: self.projector.map(|p| RawProjector {
+                width: p.width,
+                height: p.height,
+            }),
             positions: self
                 .positions
                 .iter()
@@ -262,6 +353,7 @@ impl CalibManifest {
                         .map(|s| RawShot {
                             file: s.file.clone(),
                             reference: s.reference,
+                            graycode: s.graycode.clone(),
                         })
                         .collect(),
                 })
@@ -323,6 +415,43 @@ name = "p0"
         CalibManifest::parse(text, Path::new("/x/calib.toml"))
             .unwrap_err()
             .to_string()
+    }
+
+    #[test]
+    fn gray_code_shots_need_the_projectors_size() {
+        let with_codes = GOOD.replace(
+            "file = \"p0/board-01.exr\"",
+            "file = \"p0/board-01.exr\"\ngraycode = \"p0/projector-01\"",
+        );
+        let e = error_of(&with_codes);
+        assert!(e.contains("projector"), "{e}");
+        let sized = with_codes.replace(
+            "[[position]]",
+            "[projector]\nwidth = 1024\nheight = 768\n[[position]]",
+        );
+        let m = CalibManifest::parse(&sized, Path::new("calib.toml")).unwrap();
+        let size = m.projector.unwrap();
+        assert_eq!(
+            (size.bits(GrayAxis::Columns), size.bits(GrayAxis::Rows)),
+            (10, 10)
+        );
+        assert_eq!(
+            m.positions[0].shots[1].graycode,
+            Some(PathBuf::from("p0/projector-01"))
+        );
+        assert_eq!(
+            CalibManifest::parse(&m.to_toml(), Path::new("c")).unwrap(),
+            m
+        );
+        assert_eq!(graycode_file(GrayAxis::Rows, 3, true), "rows-03-inv.exr");
+        assert_eq!(
+            ProjectorSize {
+                width: 1025,
+                height: 2
+            }
+            .bits(GrayAxis::Columns),
+            11
+        );
     }
 
     #[test]

@@ -40,7 +40,8 @@ pub use camera::{Intrinsics, PinholeCamera};
 pub use error::ScanError;
 pub use image_io::Precision;
 pub use manifest::{
-    Capture, CaptureRole, Encoding, Light, LightKind, Manifest, Pattern, Position, FORMAT,
+    gray_code, gray_decode, Capture, CaptureRole, Encoding, GrayAxis, Light, LightKind, Manifest,
+    Pattern, Position, FORMAT,
 };
 pub use mesh::{Mesh, MeshDefect, SurfacePoint};
 pub use param::Param;

@@ -91,6 +91,47 @@ pub enum Pattern {
         low: f64,
         high: f64,
     },
+    /// One bit of the binary-reflected Gray code of the projector's column
+    /// (or row) index, full white where the bit is set (where it is clear
+    /// when `inverted`): the structured light that calibrates a projector.
+    /// Calibration bundles use it; scans need not.
+    GrayCode {
+        axis: GrayAxis,
+        /// 0 is the finest stripes (one projector pixel wide).
+        bit: u32,
+        inverted: bool,
+    },
+}
+
+/// Which projector index a Gray-code pattern encodes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum GrayAxis {
+    Columns,
+    Rows,
+}
+
+impl GrayAxis {
+    pub fn name(self) -> &'static str {
+        match self {
+            GrayAxis::Columns => "columns",
+            GrayAxis::Rows => "rows",
+        }
+    }
+}
+
+/// The binary-reflected Gray code of `x`.
+pub fn gray_code(x: u64) -> u64 {
+    x ^ (x >> 1)
+}
+
+/// The index whose Gray code is `g`.
+pub fn gray_decode(mut g: u64) -> u64 {
+    let mut shift = 1;
+    while shift < 64 {
+        g ^= g >> shift;
+        shift <<= 1;
+    }
+    g
 }
 
 impl Pattern {
@@ -112,6 +153,22 @@ impl Pattern {
                     high
                 } else {
                     low
+                }
+            }
+            Pattern::GrayCode {
+                axis,
+                bit,
+                inverted,
+            } => {
+                let x = match axis {
+                    GrayAxis::Columns => u,
+                    GrayAxis::Rows => v,
+                };
+                let set = bit < 64 && (gray_code(x.max(0) as u64) >> bit) & 1 == 1;
+                if set != inverted {
+                    1.0
+                } else {
+                    0.0
                 }
             }
         }

@@ -6,8 +6,9 @@ use crate::common;
 
 use common::{assert_rejected, edit, error_of, parse, VALID};
 use glam::{DMat4, DVec3};
-use matscan_scan::manifest::{CaptureRole, Encoding, LightKind, Pattern};
+use matscan_scan::manifest::{CaptureRole, Encoding, GrayAxis, LightKind, Pattern};
 use matscan_scan::Manifest;
+use matscan_scan::{gray_code, gray_decode};
 use std::path::{Path, PathBuf};
 
 #[test]
@@ -628,6 +629,39 @@ fn every_position_needs_an_ambient_capture() {
 }
 
 #[test]
+fn gray_code_patterns_number_the_projector_columns_and_round_trip() {
+    let checker =
+        "pattern = { kind = \"checker\", period_px = 8, phase_px = [0, 0], low = 0.0, high = 1.0 }";
+    let text = edit(
+        checker,
+        "pattern = { kind = \"graycode\", axis = \"columns\", bit = 1, inverted = true }",
+    );
+    let (m, _) = parse(&text).unwrap();
+    let pattern = m.positions[0]
+        .capture("checker_8")
+        .unwrap()
+        .pattern
+        .unwrap();
+    assert_eq!(
+        pattern,
+        Pattern::GrayCode {
+            axis: GrayAxis::Columns,
+            bit: 1,
+            inverted: true
+        }
+    );
+    // Gray codes of columns 0..4: 0, 1, 11, 10; bit 1 is set from column 2
+    // on, so the inverted pattern is lit on columns 0 and 1 only.
+    let lit: Vec<f64> = (0..4).map(|u| pattern.value_at(u, 7)).collect();
+    assert_eq!(lit, vec![1.0, 1.0, 0.0, 0.0]);
+    assert_eq!(parse(&m.to_toml()).unwrap().0, m);
+    for x in [0u64, 1, 2, 3, 511, 1023, 70_000] {
+        assert_eq!(gray_decode(gray_code(x)), x);
+        assert_eq!((gray_code(x) ^ gray_code(x + 1)).count_ones(), 1);
+    }
+}
+
+#[test]
 fn patterns_need_the_projector_a_known_kind_and_valid_numbers() {
     let checker =
         "pattern = { kind = \"checker\", period_px = 8, phase_px = [0, 0], low = 0.0, high = 1.0 }";
@@ -661,7 +695,7 @@ fn patterns_need_the_projector_a_known_kind_and_valid_numbers() {
     assert_rejected(
         &with("kind = \"stripes\""),
         &format!("{key}.kind"),
-        "expected \"uniform\" or \"checker\", found \"stripes\"",
+        "expected \"uniform\", \"checker\" or \"graycode\", found \"stripes\"",
     );
     assert_rejected(
         &edit("level = 0.5", "level = 1.5"),
@@ -677,6 +711,16 @@ fn patterns_need_the_projector_a_known_kind_and_valid_numbers() {
         &edit(checker, "pattern = \"checker\""),
         key,
         "expected a table, found the string \"checker\"",
+    );
+    assert_rejected(
+        &with("kind = \"graycode\", axis = \"diagonal\", bit = 2"),
+        &format!("{key}.axis"),
+        "expected \"columns\" or \"rows\", found \"diagonal\"",
+    );
+    assert_rejected(
+        &with("kind = \"graycode\", axis = \"rows\", bit = 2.5"),
+        &format!("{key}.bit"),
+        "expected an integer from 0 to 31",
     );
     let flash_with_pattern = edit(
         "lights = [\"flash1\"]",

@@ -7,7 +7,9 @@
 //! The board is a flat, matte, two-sided quad: black and white squares
 //! (albedo 0.03 and 0.8) in a white margin of half a square, textured at
 //! [`TEXELS_PER_SQUARE`] so that its edges are sharp at any camera size
-//! this crate renders. It is lit by both flashes and the environment.
+//! this crate renders. It is lit by both flashes and the environment; for
+//! the projector's shots, also by each Gray-code pattern alone (with the
+//! environment, as every capture is).
 //!
 //! Boundaries: writes bundles through `matscan-scan`'s calibration format;
 //! finds no corners and solves nothing.
@@ -19,16 +21,20 @@ use crate::scene::{
 };
 use glam::{DMat3, DMat4, DQuat, DVec3, Vec2, Vec3};
 use matscan_scan::atomic::{write_atomic, PendingDir};
-use matscan_scan::calib_bundle::{CalibManifest, CalibPosition, Chessboard, Shot, CALIB_MANIFEST};
+use matscan_scan::calib_bundle::{
+    graycode_file, CalibManifest, CalibPosition, Chessboard, ProjectorSize, Shot, CALIB_MANIFEST,
+};
 use matscan_scan::image_io::write_rgb_exr;
 use matscan_scan::raster::Raster;
-use matscan_scan::{Manifest, Mesh, Position, Precision};
+use matscan_scan::{GrayAxis, Manifest, Mesh, Pattern, PinholeCamera, Position, Precision};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use std::path::{Path, PathBuf};
 
 /// Texture resolution of the board: texels along one square's edge.
 pub const TEXELS_PER_SQUARE: u32 = 32;
+/// How far the reference board leans back from facing the base camera.
+pub const REFERENCE_LEAN_DEG: f64 = 25.0;
 /// The rig file the simulator writes beside the photos: the truth.
 pub const TRUTH_RIG: &str = "truth-rig.toml";
 const WHITE: f32 = 0.8;
@@ -44,6 +50,9 @@ pub struct BoardBundleOptions {
     pub positions: usize,
     /// Shots per position, the reference shot included (at least 1).
     pub shots_per_position: usize,
+    /// Further shots at the first position with the projector's Gray
+    /// codes on the board (0 for none).
+    pub projector_shots: usize,
     /// Inner corners of the board (columns, rows).
     pub inner_corners: (u32, u32),
     /// The true camera's distortion (OpenCV k1 k2 p1 p2 k3).
@@ -61,6 +70,7 @@ impl Default for BoardBundleOptions {
             height: 1024,
             positions: 3,
             shots_per_position: 8,
+            projector_shots: 6,
             inner_corners: (9, 6),
             distortion: [-0.08, 0.05, 0.0005, -0.0003, 0.0],
             seed: 1,
@@ -133,15 +143,23 @@ pub fn board_scene(board: &Chessboard, board_to_world: DMat4, rig: &Rig) -> Scen
 }
 
 /// The square that makes the board, margin included, about half as wide
-/// as the view at the rig's working distance, rounded to a millimetre.
+/// as the camera's view at the rig's working distance, and narrow enough
+/// that the projector lights it whole a little farther away (its shots may
+/// stand back to 1.4 times the distance), rounded to a millimetre.
 pub fn board_for(rig: &Rig, inner_corners: (u32, u32)) -> Chessboard {
     let k = &rig.intrinsics;
-    let distance = rig
-        .positions
-        .first()
-        .map(|p| p.camera_to_world.w_axis.truncate().length())
-        .unwrap_or(1.5);
-    let view = distance * f64::from(k.width) / k.fx;
+    let Some(first) = rig.positions.first() else {
+        return Chessboard {
+            cols: inner_corners.0,
+            rows: inner_corners.1,
+            square: 0.05,
+        };
+    };
+    let distance = first.camera_to_world.w_axis.truncate().length();
+    let p = &first.projector.intrinsics;
+    let camera = (f64::from(k.width) / k.fx).min(f64::from(k.height) / k.fy);
+    let projector = (f64::from(p.width) / p.fx).min(f64::from(p.height) / p.fy);
+    let view = distance * camera.min(1.2 * projector);
     let square = (0.5 * view / f64::from(inner_corners.0 + 2) * 1000.0).round() / 1000.0;
     Chessboard {
         cols: inner_corners.0,
@@ -152,21 +170,27 @@ pub fn board_for(rig: &Rig, inner_corners: (u32, u32)) -> Chessboard {
 
 /// The reference placement: the board centred on the world origin, where
 /// the object stands, its printed side towards the base position's camera
-/// (-Z), columns along -X and rows along -Y as that camera sees them.
+/// (-Z), columns along -X and rows along -Y as that camera sees them, and
+/// leaning back by [`REFERENCE_LEAN_DEG`] like a board on an easel: a board
+/// seen head-on fixes the camera's orientation worst, since tilting it
+/// changes its image only to second order.
 pub fn reference_placement(board: &Chessboard) -> DMat4 {
-    let rotation = DMat3::from_cols(DVec3::NEG_X, DVec3::NEG_Y, DVec3::Z);
+    let facing = DMat3::from_cols(DVec3::NEG_X, DVec3::NEG_Y, DVec3::Z);
+    let rotation = DMat3::from_rotation_x(REFERENCE_LEAN_DEG.to_radians()) * facing;
     let centre = board.corner(board.cols - 1, board.rows - 1) * 0.5;
     DMat4::from_rotation_translation(DQuat::from_mat3(&rotation), -(rotation * centre))
 }
 
 /// A random board pose in the camera frame of `camera_to_world` that keeps
-/// the whole print in view, tilted up to 40 degrees and turned in plane up
-/// to 15; `None` when no pose in 200 tries fits.
+/// the whole print in view (and in `projector`'s image, when given),
+/// tilted 10 to 40 degrees and turned in plane up to 15; `None` when no
+/// pose in 500 tries fits.
 fn random_pose(
     rng: &mut Pcg64,
     board: &Chessboard,
     rig: &Rig,
     camera_to_world: DMat4,
+    projector: Option<&PinholeCamera>,
 ) -> Option<DMat4> {
     let k = rig.intrinsics;
     let distance = camera_to_world.w_axis.truncate().length();
@@ -182,12 +206,19 @@ fn random_pose(
         DVec3::new(-1.5 * board.square, y1, 0.0),
     ];
     let centre = board.corner(board.cols - 1, board.rows - 1) * 0.5;
-    for _ in 0..200 {
-        let tilt = 40f64.to_radians();
+    for _ in 0..500 {
+        // Tilted 10 to 40 degrees about an axis in the board's plane, as a
+        // person holds a board for calibration.
+        let heading = rng.gen_range(0.0..std::f64::consts::TAU);
+        let tilt = rng.gen_range(10f64.to_radians()..40f64.to_radians());
         let rotation = DQuat::from_rotation_z(rng.gen_range(-0.26..0.26))
-            * DQuat::from_rotation_y(rng.gen_range(-tilt..tilt))
-            * DQuat::from_rotation_x(rng.gen_range(-tilt..tilt));
-        let z = distance * rng.gen_range(0.8..1.1);
+            * DQuat::from_axis_angle(DVec3::new(heading.cos(), heading.sin(), 0.0), tilt);
+        let z = distance
+            * if projector.is_some() {
+                rng.gen_range(0.9..1.4)
+            } else {
+                rng.gen_range(0.8..1.1)
+            };
         let spread = 0.35 * z * f64::from(k.width) / k.fx;
         let at = DVec3::new(
             rng.gen_range(-spread..spread),
@@ -205,8 +236,23 @@ fn random_pose(
                     && px.y < f64::from(k.height) - m
             })
         });
-        if fits {
-            return Some(camera_to_world * board_to_camera);
+        let board_to_world = camera_to_world * board_to_camera;
+        let lit = projector.is_none_or(|projector| {
+            let k = projector.intrinsics;
+            outline.iter().all(|&p| {
+                projector
+                    .project(board_to_world.transform_point3(p))
+                    .is_some_and(|px| {
+                        let m = 0.03 * f64::from(k.width.min(k.height));
+                        px.x > m
+                            && px.y > m
+                            && px.x < f64::from(k.width) - m
+                            && px.y < f64::from(k.height) - m
+                    })
+            })
+        });
+        if fits && lit {
+            return Some(board_to_world);
         }
     }
     None
@@ -255,12 +301,14 @@ pub fn write_board_bundle(
             let placement = if s == 0 {
                 reference
             } else {
-                random_pose(&mut rng, &board, &rig, position.camera_to_world).ok_or_else(|| {
-                    SimError::Options(format!(
-                        "no board pose fits the view at position {}",
-                        position.name
-                    ))
-                })?
+                random_pose(&mut rng, &board, &rig, position.camera_to_world, None).ok_or_else(
+                    || {
+                        SimError::Options(format!(
+                            "no board pose fits the view at position {}",
+                            position.name
+                        ))
+                    },
+                )?
             };
             let scene = board_scene(&board, placement, &rig);
             let renderer = Renderer::with_environment(&scene, env.clone());
@@ -273,18 +321,37 @@ pub fn write_board_bundle(
             shots.push(Shot {
                 file,
                 reference: s == 0,
+                graycode: None,
             });
+        }
+        if p == 0 {
+            for k in 0..opts.projector_shots {
+                shots.push(projector_shot(
+                    &mut rng,
+                    &board,
+                    &rig,
+                    &env,
+                    &ropts,
+                    pending.path(),
+                    k,
+                )?);
+            }
         }
         positions.push(CalibPosition {
             name: position.name.clone(),
             shots,
         });
     }
+    let projector = &rig.positions[0].projector.intrinsics;
     let manifest = CalibManifest {
         units: "m".into(),
         board,
         reference_to_world: reference,
         positions,
+        projector: (opts.projector_shots > 0).then_some(ProjectorSize {
+            width: projector.width,
+            height: projector.height,
+        }),
     };
     write_atomic(
         &pending.path().join(CALIB_MANIFEST),
@@ -296,6 +363,72 @@ pub fn write_board_bundle(
     )?;
     pending.publish()?;
     Ok(manifest)
+}
+
+/// The `k`-th Gray-code shot at the first position: the board where both
+/// the camera and the projector see it whole, photographed under the
+/// flashes (for its corners) and under every Gray-code pattern, rendered in
+/// one pass.
+fn projector_shot(
+    rng: &mut Pcg64,
+    board: &Chessboard,
+    rig: &Rig,
+    env: &Environment,
+    ropts: &RenderOptions,
+    root: &Path,
+    k: usize,
+) -> Result<Shot, SimError> {
+    let position = &rig.positions[0];
+    let projector = PinholeCamera::new(
+        position.projector.intrinsics,
+        position.projector.projector_to_world,
+    );
+    let placement = random_pose(rng, board, rig, position.camera_to_world, Some(&projector))
+        .ok_or_else(|| {
+            SimError::Options(format!(
+                "no board pose fits both the camera's and the projector's view at {}",
+                position.name
+            ))
+        })?;
+    let size = ProjectorSize {
+        width: projector.intrinsics.width,
+        height: projector.intrinsics.height,
+    };
+    let name = position.projector.name.as_str();
+    let mut captures = vec![CaptureSpec::new("board", &["flash0", "flash1"], None)];
+    let mut files = Vec::new();
+    for axis in [GrayAxis::Columns, GrayAxis::Rows] {
+        for bit in 0..size.bits(axis) {
+            for inverted in [false, true] {
+                let pattern = Pattern::GrayCode {
+                    axis,
+                    bit,
+                    inverted,
+                };
+                let file = graycode_file(axis, bit, inverted);
+                captures.push(CaptureSpec::new(&file, &[name], Some(pattern)));
+                files.push(file);
+            }
+        }
+    }
+    let scene = board_scene(board, placement, rig);
+    let renderer = Renderer::with_environment(&scene, env.clone());
+    let photos = renderer.render_position(0, &captures, ropts)?.photos;
+    let folder = PathBuf::from(&position.name).join(format!("projector-{k:02}"));
+    std::fs::create_dir_all(root.join(&folder)).map_err(|e| SimError::Io {
+        path: root.join(&folder),
+        source: e,
+    })?;
+    let lit = folder.join("board.exr");
+    write_rgb_exr(&root.join(&lit), &photos[0], Precision::Half)?;
+    for (file, photo) in files.iter().zip(&photos[1..]) {
+        write_rgb_exr(&root.join(&folder).join(file), photo, Precision::Half)?;
+    }
+    Ok(Shot {
+        file: lit,
+        reference: false,
+        graycode: Some(folder),
+    })
 }
 
 /// The rig as a rig calibration file: the camera, its pose at each

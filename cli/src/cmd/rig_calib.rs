@@ -5,7 +5,9 @@
 use anyhow::{Context, Result};
 use clap::Args;
 use matscan_rigcal::compare::compare;
-use matscan_rigcal::write::write_calibration;
+use matscan_rigcal::projector::calibrate_projector;
+use matscan_rigcal::sheet::write_contact_sheet;
+use matscan_rigcal::write::{write_calibration, REPORT_FILE};
 use matscan_rigcal::{calibrate_camera, Acceptance};
 use matscan_scan::calib_bundle::CalibManifest;
 use matscan_scan::Manifest;
@@ -43,6 +45,9 @@ pub struct BoardArgs {
     /// Shots per position, the reference shot included.
     #[arg(long, default_value_t = 8)]
     pub shots: usize,
+    /// Gray-code shots for the projector, at the first position.
+    #[arg(long, default_value_t = 6)]
+    pub projector_shots: usize,
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Paths per pixel.
@@ -70,10 +75,23 @@ pub fn run_rig(a: RigArgs) -> Result<()> {
     let t = Instant::now();
     let calibration = calibrate_camera(&a.bundle, &manifest, &acceptance)
         .with_context(|| format!("calibrating the camera from {}", a.bundle.display()))?;
+    let projector = if calibration.report.accepted {
+        calibrate_projector(&a.bundle, &manifest, &calibration)
+            .with_context(|| format!("calibrating the projector from {}", a.bundle.display()))?
+    } else {
+        None
+    };
     let seconds = t.elapsed().as_secs_f64();
     let out = a.out.unwrap_or_else(|| a.bundle.join("result"));
-    let written = write_calibration(&out, &calibration, lights.as_ref().map(|(p, m)| (*p, m)))
-        .with_context(|| format!("writing the calibration to {}", out.display()))?;
+    let written = write_calibration(
+        &out,
+        &calibration,
+        projector.as_ref(),
+        lights.as_ref().map(|(p, m)| (*p, m)),
+    )
+    .with_context(|| format!("writing the calibration to {}", out.display()))?;
+    let sheet = write_contact_sheet(&a.bundle, &manifest, &calibration, &out)
+        .with_context(|| format!("drawing the contact sheet into {}", out.display()))?;
     let r = &calibration.report;
     println!(
         "camera {}x{}: fx {:.2} fy {:.2} cx {:.2} cy {:.2}, distortion {:.4} {:.4} {:.5} {:.5} {:.4}",
@@ -107,17 +125,39 @@ pub fn run_rig(a: RigArgs) -> Result<()> {
             if s.reference { ", reference" } else { "" }
         );
     }
+    if let Some(p) = &projector {
+        let r = &p.report;
+        println!(
+            "projector {}x{}: fx {:.2} fy {:.2} cx {:.2} cy {:.2}; {} Gray-code shots, \
+             reprojection RMS {:.3} projector px, pose spread {:.2} mm / {:.3} deg",
+            r.width,
+            r.height,
+            r.fx,
+            r.fy,
+            r.cx,
+            r.cy,
+            r.shots.len(),
+            r.rms_px,
+            1000.0 * r.pose_spread,
+            r.pose_spread_deg
+        );
+    }
     match written {
         Some(path) => {
             println!(
-                "wrote {} and {}",
+                "wrote {}, {} and {}",
                 path.display(),
-                out.join("calib-report.toml").display()
+                out.join(REPORT_FILE).display(),
+                sheet.display()
             );
             Ok(())
         }
         None => {
-            eprintln!("calibration refused (report in {}):", out.display());
+            eprintln!(
+                "calibration refused (see {} and {}):",
+                out.join(REPORT_FILE).display(),
+                sheet.display()
+            );
             for p in &r.problems {
                 eprintln!("  - {p}");
             }
@@ -136,6 +176,7 @@ pub fn run_board(a: BoardArgs) -> Result<()> {
         height: a.size,
         positions: a.positions,
         shots_per_position: a.shots,
+        projector_shots: a.projector_shots,
         seed: a.seed,
         samples: a.samples,
         ..BoardBundleOptions::default()
@@ -166,7 +207,7 @@ pub fn run_compare(measured: &Path, reference: &Path) -> Result<()> {
     };
     let d = compare(&read(measured)?, &read(reference)?);
     println!(
-        "focal length {:.4} %, principal point {:.3} px; over {} positions: camera position \
+        "camera: focal length {:.4} %, principal point {:.3} px; over {} positions: position \
          {:.3} mm, orientation {:.4} deg (worst)",
         d.focal_percent,
         d.principal_px,
@@ -174,5 +215,16 @@ pub fn run_compare(measured: &Path, reference: &Path) -> Result<()> {
         1000.0 * d.position,
         d.rotation_deg
     );
+    match d.projector {
+        Some(p) => println!(
+            "projector: focal length {:.4} %, principal point {:.3} px, position {:.3} mm, \
+             orientation {:.4} deg (worst)",
+            p.focal_percent,
+            p.principal_px,
+            1000.0 * p.position,
+            p.rotation_deg
+        ),
+        None => println!("projector: not in both files"),
+    }
     Ok(())
 }

@@ -3,7 +3,7 @@
 //! what was expected (see `docs/scan-format.md` for the list of rules).
 
 use super::fields::{describe, Fields};
-use super::{Capture, Encoding, Light, LightKind, Manifest, Pattern, Position, FORMAT};
+use super::{Capture, Encoding, GrayAxis, Light, LightKind, Manifest, Pattern, Position, FORMAT};
 use crate::camera::{mat4_from_row_major, Intrinsics};
 use crate::error::ScanError;
 use glam::{DMat3, DMat4, DVec3};
@@ -390,9 +390,34 @@ fn pattern(f: &mut Fields<'_>) -> Result<Pattern, ScanError> {
             low: f.unit_interval("low", Some(0.0))?,
             high: f.unit_interval("high", Some(1.0))?,
         }),
+        "graycode" => Ok(Pattern::GrayCode {
+            axis: match f.string("axis")?.as_str() {
+                "columns" => GrayAxis::Columns,
+                "rows" => GrayAxis::Rows,
+                other => {
+                    return Err(f.error(
+                        "axis",
+                        format!("expected \"columns\" or \"rows\", found {other:?}"),
+                    ))
+                }
+            },
+            bit: {
+                let bit = f.number("bit")?;
+                if !(bit.fract() == 0.0 && (0.0..32.0).contains(&bit)) {
+                    return Err(f.error("bit", "expected an integer from 0 to 31"));
+                }
+                bit as u32
+            },
+            inverted: match f.get("inverted") {
+                None => false,
+                Some(v) => v
+                    .as_bool()
+                    .ok_or_else(|| f.error("inverted", "expected true or false"))?,
+            },
+        }),
         other => Err(f.error(
             "kind",
-            format!("expected \"uniform\" or \"checker\", found {other:?}"),
+            format!("expected \"uniform\", \"checker\" or \"graycode\", found {other:?}"),
         )),
     }
 }

@@ -99,6 +99,14 @@ fn pattern(p: &Pattern) -> String {
             number(low),
             number(high)
         ),
+        Pattern::GrayCode {
+            axis,
+            bit,
+            inverted,
+        } => format!(
+            "{{ kind = \"graycode\", axis = \"{}\", bit = {bit}, inverted = {inverted} }}",
+            axis.name()
+        ),
     }
 }
 

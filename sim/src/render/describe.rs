@@ -255,6 +255,13 @@ fn pattern_json(p: Pattern) -> Value {
             "kind": "checker", "period_px": period_px, "phase_px": phase_px,
             "low": low, "high": high,
         }),
+        Pattern::GrayCode {
+            axis,
+            bit,
+            inverted,
+        } => json!({
+            "kind": "graycode", "axis": axis.name(), "bit": bit, "inverted": inverted,
+        }),
     }
 }
 
