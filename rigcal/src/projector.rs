@@ -5,7 +5,8 @@
 //! decoded pixels around each board corner gives the corner's position in
 //! the projector's image; the projector's intrinsics and its board poses
 //! then follow from the same closed form and refinement as the camera's,
-//! and its pose from the board poses both see.
+//! and its pose from the board poses both see, refined with its intrinsics
+//! against every corner with the boards where the camera put them.
 //!
 //! Decoding: a bit is read as set where the pattern photo is brighter than
 //! its inverse, and trusted where the two differ by at least a quarter of
@@ -19,8 +20,8 @@
 use crate::camera::{read_shot, CameraCalibration};
 use crate::detect::Corner;
 use crate::error::RigcalError;
-use crate::model::project;
-use crate::refine::{refine, ShotPoints, PROJECTOR_FIXED};
+use crate::model::{project, Pose};
+use crate::refine::{least_squares, refine, ShotPoints, PROJECTOR_FIXED};
 use crate::zhang;
 use glam::{DMat4, DQuat, DVec2, DVec3};
 use matscan_scan::calib_bundle::{graycode_file, CalibManifest, ProjectorSize};
@@ -160,12 +161,18 @@ pub fn calibrate_projector(
             camera.poses[*k].matrix() * projector_pose.matrix().inverse()
         })
         .collect();
-    let projector_to_camera = mean_transform(&per_shot);
+    let start_to_camera = mean_transform(&per_shot);
+    // Then the projector's intrinsics and its pose in the camera frame
+    // together, through the camera's board poses (a stereo refinement):
+    // the board's distance is the camera's, so the projector's focal
+    // length no longer trades off against it.
+    let (intrinsics, projector_to_camera) =
+        refine_in_camera_frame(&refined.camera, start_to_camera, &shots, &points, camera);
     let (spread, spread_deg) = per_shot
         .iter()
         .map(|t| crate::compare::pose_difference(t, &projector_to_camera))
         .fold((0.0f64, 0.0f64), |(a, b), (d, r)| (a.max(d), b.max(r)));
-    let k = refined.camera;
+    let k = intrinsics;
     let mut shot_reports = Vec::with_capacity(shots.len());
     let (mut sum, mut count) = (0.0, 0usize);
     for (((sp, pose), (_, folder)), bits) in
@@ -208,6 +215,51 @@ pub fn calibrate_projector(
             shots: shot_reports,
         },
     }))
+}
+
+/// The projector's intrinsics (no distortion) and its pose in the camera
+/// frame that best explain every Gray-code corner, the boards where the
+/// camera put them.
+fn refine_in_camera_frame(
+    start: &Intrinsics,
+    projector_to_camera: DMat4,
+    shots: &[(usize, PathBuf)],
+    points: &[ShotPoints],
+    camera: &CameraCalibration,
+) -> (Intrinsics, DMat4) {
+    let to_projector = Pose::from_matrix(&projector_to_camera.inverse());
+    let mut params = vec![start.fx, start.fy, start.cx, start.cy];
+    params.extend_from_slice(&to_projector.pack());
+    let boards: Vec<DMat4> = shots
+        .iter()
+        .map(|(k, _)| camera.poses[*k].matrix())
+        .collect();
+    let unpack = |p: &[f64]| {
+        let k = Intrinsics {
+            fx: p[0],
+            fy: p[1],
+            cx: p[2],
+            cy: p[3],
+            distortion: [0.0; 5],
+            ..*start
+        };
+        (k, Pose::unpack(&p[4..10]).matrix())
+    };
+    let solved = least_squares(&params, |p| {
+        let (k, camera_to_projector) = unpack(p);
+        let mut r = Vec::new();
+        for (sp, board) in points.iter().zip(&boards) {
+            let pose = Pose::from_matrix(&(camera_to_projector * *board));
+            for (&x, &observed) in sp.board.iter().zip(&sp.pixels) {
+                let e = project(&k, &pose, x) - observed;
+                r.push(e.x);
+                r.push(e.y);
+            }
+        }
+        r
+    });
+    let (k, camera_to_projector) = unpack(&solved);
+    (k, camera_to_projector.inverse())
 }
 
 /// The mean of rigid transforms: translations averaged, rotations by the

@@ -209,3 +209,61 @@ pub fn refine(
         iterations,
     }
 }
+
+/// A small dense least-squares problem by Levenberg-Marquardt: `residuals`
+/// of the parameters, minimised from `start` (central-difference
+/// Jacobian). For the few-unknown fits beside the main refinement.
+pub fn least_squares(start: &[f64], residuals: impl Fn(&[f64]) -> Vec<f64>) -> Vec<f64> {
+    let n = start.len();
+    let mut params = start.to_vec();
+    let cost_of = |r: &[f64]| r.iter().map(|v| v * v).sum::<f64>();
+    let mut r = residuals(&params);
+    let mut cost = cost_of(&r);
+    let mut lambda = 1e-3;
+    for _ in 0..MAX_ITERATIONS {
+        let m = r.len();
+        let mut jac = DMatrix::<f64>::zeros(m, n);
+        for k in 0..n {
+            let h = 1e-6 * params[k].abs().max(1e-3);
+            let mut plus = params.clone();
+            plus[k] += h;
+            let mut minus = params.clone();
+            minus[k] -= h;
+            let (rp, rm) = (residuals(&plus), residuals(&minus));
+            for i in 0..m.min(rp.len()).min(rm.len()) {
+                jac[(i, k)] = (rp[i] - rm[i]) / (2.0 * h);
+            }
+        }
+        let jtj = jac.transpose() * &jac;
+        let jtr = jac.transpose() * DVector::from_column_slice(&r);
+        let mut improved = false;
+        while lambda < 1e12 {
+            let mut damped = jtj.clone();
+            for k in 0..n {
+                damped[(k, k)] += lambda * jtj[(k, k)].max(1e-12);
+            }
+            let Some(chol) = damped.cholesky() else {
+                lambda *= 10.0;
+                continue;
+            };
+            let step = chol.solve(&(-&jtr));
+            let trial: Vec<f64> = params.iter().zip(step.iter()).map(|(p, d)| p + d).collect();
+            let tr = residuals(&trial);
+            let trial_cost = cost_of(&tr);
+            if trial_cost.is_finite() && trial_cost < cost {
+                let gain = (cost - trial_cost) / cost.max(1e-300);
+                params = trial;
+                r = tr;
+                cost = trial_cost;
+                lambda = (lambda * 0.3).max(1e-12);
+                improved = gain > 1e-12;
+                break;
+            }
+            lambda *= 10.0;
+        }
+        if !improved {
+            break;
+        }
+    }
+    params
+}
