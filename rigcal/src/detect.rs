@@ -32,20 +32,20 @@ pub struct Corner {
     pub pixel: DVec2,
 }
 
+/// Rec. 709 luminance of a linear RGB pixel; 0 where it is not finite, so
+/// a bad pixel reads as dark rather than poisoning a sum.
+pub(crate) fn luminance(p: &[f32; 3]) -> f32 {
+    let y = 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2];
+    if y.is_finite() {
+        y
+    } else {
+        0.0
+    }
+}
+
 /// The photo's display-level grey image (see the module doc).
 pub fn grey_levels(photo: &RgbRaster) -> image::GrayImage {
-    let luminance: Vec<f32> = photo
-        .data
-        .iter()
-        .map(|p| {
-            let y = 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2];
-            if y.is_finite() {
-                y.max(0.0)
-            } else {
-                0.0
-            }
-        })
-        .collect();
+    let luminance: Vec<f32> = photo.data.iter().map(|p| luminance(p).max(0.0)).collect();
     let mut sorted = luminance.clone();
     sorted.sort_by(f32::total_cmp);
     let top = sorted
@@ -122,8 +122,9 @@ pub fn find_board(
     Ok(corners)
 }
 
-/// Per corner, the distance to its nearest labelled neighbour, pixels.
-fn corner_spacing(corners: &[Corner]) -> Vec<f64> {
+/// Per corner, the distance to its nearest labelled neighbour, pixels (8
+/// for a corner without one).
+pub(crate) fn corner_spacing(corners: &[Corner]) -> Vec<f64> {
     corners
         .iter()
         .map(|c| {
@@ -152,14 +153,7 @@ impl Luminance {
             values: photo
                 .data
                 .iter()
-                .map(|p| {
-                    let y = 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2];
-                    if y.is_finite() {
-                        f64::from(y.max(0.0))
-                    } else {
-                        0.0
-                    }
-                })
+                .map(|p| f64::from(luminance(p).max(0.0)))
                 .collect(),
         }
     }

@@ -18,7 +18,7 @@
 //! homography averages.
 
 use crate::camera::{read_shot, CameraCalibration};
-use crate::detect::Corner;
+use crate::detect::{corner_spacing, luminance, Corner};
 use crate::error::RigcalError;
 use crate::model::{project, Pose};
 use crate::refine::{least_squares, refine, ShotPoints, PROJECTOR_FIXED};
@@ -296,23 +296,13 @@ fn projector_points(
 ) -> Result<(ShotPoints, [u32; 2]), RigcalError> {
     let columns = decode(folder, size, GrayAxis::Columns)?;
     let rows = decode(folder, size, GrayAxis::Rows)?;
-    let spacing = corners
-        .iter()
-        .map(|c| {
-            corners
-                .iter()
-                .filter(|o| o.i.abs_diff(c.i) + o.j.abs_diff(c.j) == 1)
-                .map(|o| (o.pixel - c.pixel).length())
-                .fold(f64::INFINITY, f64::min)
-        })
-        .collect::<Vec<_>>();
+    let spacing = corner_spacing(corners);
     let height = columns.index.len() / columns.width.max(1);
     let mut out = ShotPoints {
         board: Vec::new(),
         pixels: Vec::new(),
     };
-    for (corner, gap) in corners.iter().zip(spacing) {
-        let r = if gap.is_finite() { gap } else { 8.0 };
+    for (corner, r) in corners.iter().zip(spacing) {
         let (x0, x1) = (
             (corner.pixel.x - r).floor().max(0.0) as usize,
             (corner.pixel.x + r).ceil() as usize,
@@ -382,18 +372,7 @@ fn decode(folder: &Path, size: ProjectorSize, axis: GrayAxis) -> Result<Decoded,
                         photo.width, photo.height
                     ),
                 }),
-                _ => Ok(photo
-                    .data
-                    .iter()
-                    .map(|p| {
-                        let y = 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2];
-                        if y.is_finite() {
-                            y
-                        } else {
-                            0.0
-                        }
-                    })
-                    .collect()),
+                _ => Ok(photo.data.iter().map(luminance).collect()),
             }
             .inspect(|_| shape = Some((photo.width, photo.height)))
         };

@@ -257,12 +257,20 @@ fn a_photo_without_a_board_names_the_file() {
     assert!(find_board(&black, &BOARD, Path::new("x.exr")).is_err());
 }
 
-/// The whole chain: the simulated rig renders its board photos, the
-/// calibration finds the camera and the poses, the rig file reads back with
-/// the lights it was told to keep. Small photos keep it quick; the
-/// accuracy at 1024 px is in docs/results.md.
-#[test]
-fn the_simulated_rigs_board_photos_calibrate_its_camera() {
+/// A board bundle the simulated rig renders at 512 px (two positions of
+/// `shots` shots, `projector_shots` Gray-code poses, 4 paths per pixel, a
+/// 7 x 5 board), its camera calibrated, and the true rig.
+fn rendered(
+    shots: usize,
+    projector_shots: usize,
+    seed: u64,
+) -> (
+    tempfile::TempDir,
+    PathBuf,
+    CalibManifest,
+    crate::CameraCalibration,
+    Manifest,
+) {
     use matscan_sim::calib_target::{write_board_bundle, BoardBundleOptions, TRUTH_RIG};
     let dir = tempfile::tempdir().unwrap();
     let bundle = dir.path().join("board");
@@ -270,16 +278,26 @@ fn the_simulated_rigs_board_photos_calibrate_its_camera() {
         width: 512,
         height: 512,
         positions: 2,
-        shots_per_position: 7,
-        projector_shots: 0,
+        shots_per_position: shots,
+        projector_shots,
         inner_corners: (7, 5),
         samples: 4,
-        seed: 3,
+        seed,
         ..BoardBundleOptions::default()
     };
     let m = write_board_bundle(&opts, &bundle).unwrap();
     let cal = calibrate_camera(&bundle, &m, &Acceptance::default()).unwrap();
     let (truth, _) = Manifest::read_rig(&bundle.join(TRUTH_RIG)).unwrap();
+    (dir, bundle, m, cal, truth)
+}
+
+/// The whole chain: the simulated rig renders its board photos, the
+/// calibration finds the camera and the poses, the rig file reads back with
+/// the lights it was told to keep. Small photos keep it quick; the
+/// accuracy at 1024 px is in docs/results.md.
+#[test]
+fn the_simulated_rigs_board_photos_calibrate_its_camera() {
+    let (dir, bundle, m, cal, truth) = rendered(7, 0, 3);
     let d = compare(&rig_manifest(&cal, None, None, "test"), &truth);
     // 14 shots at 512 px and 4 paths per pixel: the principal point is
     // known to a few pixels, and the orientation with it (1.8 px is 0.23
@@ -309,7 +327,8 @@ fn the_simulated_rigs_board_photos_calibrate_its_camera() {
     assert!(mean.length() < 0.05 && rms < 0.2, "mean {mean}, rms {rms}");
     assert_eq!(d.positions, 2);
     let out = dir.path().join("result");
-    let rig = write_calibration(&out, &cal, None, Some((&bundle.join(TRUTH_RIG), &truth)))
+    let truth_file = bundle.join(matscan_sim::calib_target::TRUTH_RIG);
+    let rig = write_calibration(&out, &cal, None, Some((&truth_file, &truth)))
         .unwrap()
         .unwrap();
     let (written, _) = Manifest::read_rig(&rig).unwrap();
@@ -325,24 +344,8 @@ fn the_simulated_rigs_gray_codes_calibrate_its_projector() {
     use crate::projector::calibrate_projector;
     use matscan_scan::calib_bundle::graycode_file;
     use matscan_scan::GrayAxis;
-    use matscan_sim::calib_target::{write_board_bundle, BoardBundleOptions, TRUTH_RIG};
-    let dir = tempfile::tempdir().unwrap();
-    let bundle = dir.path().join("board");
-    let opts = BoardBundleOptions {
-        width: 512,
-        height: 512,
-        positions: 2,
-        shots_per_position: 4,
-        projector_shots: 4,
-        inner_corners: (7, 5),
-        samples: 4,
-        seed: 4,
-        ..BoardBundleOptions::default()
-    };
-    let m = write_board_bundle(&opts, &bundle).unwrap();
-    let cal = calibrate_camera(&bundle, &m, &Acceptance::default()).unwrap();
+    let (_dir, bundle, m, cal, truth) = rendered(4, 4, 4);
     let projector = calibrate_projector(&bundle, &m, &cal).unwrap().unwrap();
-    let (truth, _) = Manifest::read_rig(&bundle.join(TRUTH_RIG)).unwrap();
     let d = compare(&rig_manifest(&cal, Some(&projector), None, "test"), &truth)
         .projector
         .unwrap();
