@@ -21,6 +21,11 @@ pub struct RigDifference {
     pub rotation_deg: f64,
     /// Positions compared.
     pub positions: usize,
+    /// Largest distance, in the reference's pixels, between where the two
+    /// cameras see a point of the box within [`OBJECT_HALF_SIZE`] of the
+    /// world origin (where the object stands), over the points in view: what the estimator feels of
+    /// the differences above, which partly cancel there.
+    pub object_px: f64,
     /// The projector's figures, where both files have one.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub projector: Option<ProjectorDifference>,
@@ -54,6 +59,39 @@ fn intrinsics_difference(m: &Intrinsics, r: &Intrinsics) -> (f64, f64) {
     )
 }
 
+/// Half the edge of the box around the world origin whose points
+/// [`RigDifference::object_px`] projects, in the files' units.
+pub const OBJECT_HALF_SIZE: f64 = 0.5;
+
+/// The largest pixel distance between two cameras' images of the points
+/// of a 9 x 9 x 9 grid over the object's box that the reference camera
+/// sees (outside its image the lens model is extrapolated).
+fn object_difference(
+    measured: &matscan_scan::PinholeCamera,
+    reference: &matscan_scan::PinholeCamera,
+) -> f64 {
+    let mut worst = 0.0f64;
+    for i in 0..9 {
+        for j in 0..9 {
+            for k in 0..9 {
+                let at = |n: i32| OBJECT_HALF_SIZE * (f64::from(n) / 4.0 - 1.0);
+                let x = glam::DVec3::new(at(i), at(j), at(k));
+                let k = &reference.intrinsics;
+                if let (Some(a), Some(b)) = (measured.project(x), reference.project(x)) {
+                    let seen = b.x >= 0.0
+                        && b.y >= 0.0
+                        && b.x <= f64::from(k.width)
+                        && b.y <= f64::from(k.height);
+                    if seen {
+                        worst = worst.max((a - b).length());
+                    }
+                }
+            }
+        }
+    }
+    worst
+}
+
 pub fn compare(measured: &Manifest, reference: &Manifest) -> RigDifference {
     let (focal_percent, principal_px) = intrinsics_difference(&measured.camera, &reference.camera);
     let mut out = RigDifference {
@@ -62,8 +100,12 @@ pub fn compare(measured: &Manifest, reference: &Manifest) -> RigDifference {
         position: 0.0,
         rotation_deg: 0.0,
         positions: 0,
+        object_px: 0.0,
         projector: None,
     };
+    let measured_camera = measured
+        .camera
+        .scaled_to(reference.camera.width, reference.camera.height);
     for p in &reference.positions {
         let Some(q) = measured.position(&p.name) else {
             continue;
@@ -72,6 +114,10 @@ pub fn compare(measured: &Manifest, reference: &Manifest) -> RigDifference {
         out.position = out.position.max(dp);
         out.rotation_deg = out.rotation_deg.max(dr);
         out.positions += 1;
+        out.object_px = out.object_px.max(object_difference(
+            &matscan_scan::PinholeCamera::new(measured_camera, q.camera_to_world),
+            &matscan_scan::PinholeCamera::new(reference.camera, p.camera_to_world),
+        ));
         if let (Some((km, tm)), Some((kr, tr))) = (projector_of(q), projector_of(p)) {
             let (focal_percent, principal_px) = intrinsics_difference(&km, &kr);
             let (dp, dr) = pose_difference(&tm, &tr);

@@ -376,3 +376,47 @@ fn the_simulated_rigs_gray_codes_calibrate_its_projector() {
     assert!(matches!(e, RigcalError::GrayCode { .. }), "{e}");
     assert!(e.to_string().contains(folder.to_str().unwrap()), "{e}");
 }
+
+#[test]
+fn a_rig_compared_with_itself_differs_by_nothing_and_a_shifted_camera_by_its_shift() {
+    use matscan_scan::{LightKind, Position};
+    let m = Manifest {
+        units: "m".into(),
+        name: "rig".into(),
+        created: "2026-12-05T00:00:00Z".into(),
+        camera: true_camera(),
+        positions: vec![Position {
+            name: "p0".into(),
+            camera_to_world: DMat4::from_translation(DVec3::new(0.0, 0.0, -1.5)),
+            lights: vec![matscan_scan::Light {
+                name: "projector".into(),
+                kind: LightKind::Projector {
+                    projector_to_world: DMat4::from_translation(DVec3::new(0.2, 0.0, -1.5)),
+                    intrinsics: Intrinsics {
+                        distortion: [0.0; 5],
+                        ..true_camera()
+                    },
+                },
+                color: [1.0; 3],
+                intensity: None,
+            }],
+            captures: Vec::new(),
+            white_reference_mask: None,
+        }],
+    };
+    let same = compare(&m, &m);
+    assert_eq!(
+        (same.focal_percent, same.position, same.object_px),
+        (0.0, 0.0, 0.0)
+    );
+    assert_eq!(same.projector.unwrap().position, 0.0);
+    let mut shifted = m.clone();
+    shifted.camera.cx += 1.0;
+    shifted.positions[0].camera_to_world *= DMat4::from_translation(DVec3::new(0.001, 0.0, 0.0));
+    let d = compare(&shifted, &m);
+    assert!(
+        (d.principal_px - 1.0).abs() < 1e-9 && (d.position - 0.001).abs() < 1e-9,
+        "{d:?}"
+    );
+    assert!(d.object_px > 0.5 && d.object_px < 2.0, "{d:?}");
+}

@@ -208,12 +208,13 @@ pub fn run_compare(measured: &Path, reference: &Path) -> Result<()> {
     let d = compare(&read(measured)?, &read(reference)?);
     println!(
         "camera: focal length {:.4} %, principal point {:.3} px; over {} positions: position \
-         {:.3} mm, orientation {:.4} deg (worst)",
+         {:.3} mm, orientation {:.4} deg, the object's box {:.3} px apart (worst)",
         d.focal_percent,
         d.principal_px,
         d.positions,
         1000.0 * d.position,
-        d.rotation_deg
+        d.rotation_deg,
+        d.object_px
     );
     match d.projector {
         Some(p) => println!(
