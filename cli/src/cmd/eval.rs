@@ -6,6 +6,7 @@ use clap::Args;
 use matscan_estimate::fit::FitLight;
 use matscan_estimate::pipeline::method::Method;
 use matscan_estimate::pipeline::oracle::Oracles;
+use matscan_evaluate::eval::rig_error::RigError;
 use matscan_evaluate::eval::tables::GroupBy;
 use matscan_evaluate::eval::{run as evaluate, DependencySource, EvalOptions};
 use std::path::PathBuf;
@@ -75,6 +76,13 @@ pub struct EvalArgs {
     /// and scene kind, at the last count of --views. Simulated scans only.
     #[arg(long, value_name = "SET")]
     pub oracle: Vec<Oracles>,
+    /// Estimate with a deliberately wrong rig calibration, to measure what
+    /// a calibration error costs: focal=PERCENT (fx and fy scaled),
+    /// camera-shift=MM (the camera moved along its x axis),
+    /// camera-turn=DEG (turned about its y axis) or light-shift=MM (every
+    /// flash moved along the camera's x axis), at every position.
+    #[arg(long, value_name = "KEY=VALUE")]
+    pub rig_error: Option<RigError>,
 }
 
 /// Runs `matscan eval`: prints the tables, writes the CSV.
@@ -92,6 +100,7 @@ pub fn run(a: &EvalArgs) -> Result<()> {
         method: a.method,
         fit_light: a.fit_light,
         oracles: a.oracle.clone(),
+        rig_error: a.rig_error,
     })?;
     print!("{}", report.table);
     if let Some(path) = &a.csv {

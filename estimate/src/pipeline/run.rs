@@ -196,8 +196,19 @@ pub struct PreparedScan {
 impl PreparedScan {
     /// Opens the scan at `scan` and calibrates it with `calib`.
     pub fn open(scan: &Path, calib: &CalibOptions) -> Result<PreparedScan, EstimateError> {
+        Self::open_adjusted(scan, calib, &|_| {})
+    }
+
+    /// [`PreparedScan::open`] with the manifest changed by `adjust` before
+    /// calibration (an evaluation's deliberately wrong rig).
+    pub fn open_adjusted(
+        scan: &Path,
+        calib: &CalibOptions,
+        adjust: &dyn Fn(&mut matscan_scan::Manifest),
+    ) -> Result<PreparedScan, EstimateError> {
         let t = Instant::now();
-        let bundle = Bundle::open(scan)?;
+        let mut bundle = Bundle::open(scan)?;
+        adjust(&mut bundle.manifest);
         let load_s = t.elapsed().as_secs_f64();
         let t = Instant::now();
         let calibration = calibrate_bundle(&bundle, calib)?;

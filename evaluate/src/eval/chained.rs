@@ -120,7 +120,12 @@ pub(super) fn chained_configurations(
     // one calibration serves them all.
     let calib = EstimateOptions::default().calib;
     for (i, scan) in scans.iter().enumerate() {
-        let prepared = match PreparedScan::open(scan, &calib) {
+        let adjust = |m: &mut matscan_scan::Manifest| {
+            if let Some(e) = args.rig_error {
+                e.apply(m);
+            }
+        };
+        let prepared = match PreparedScan::open_adjusted(scan, &calib, &adjust) {
             Ok(p) => p,
             Err(e) => {
                 for c in &mut out {

@@ -33,6 +33,7 @@ pub mod chained;
 pub mod independent;
 pub mod options;
 pub mod report;
+pub mod rig_error;
 pub mod tables;
 pub mod texture;
 pub mod truth;

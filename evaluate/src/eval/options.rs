@@ -37,6 +37,9 @@ pub struct EvalOptions {
     /// each beside the estimate as it is (see [`super::budget`]); empty:
     /// no budget.
     pub oracles: Vec<matscan_estimate::pipeline::oracle::Oracles>,
+    /// A deliberate calibration error applied to every scan before it is
+    /// estimated (the chained estimate only).
+    pub rig_error: Option<super::rig_error::RigError>,
 }
 
 impl EvalOptions {
