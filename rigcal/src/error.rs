@@ -34,6 +34,12 @@ pub enum RigcalError {
          differently in each (add shots to calib.toml)"
     )]
     TooFewShots { found: usize, needed: usize },
+    /// Too few Gray-code poses to calibrate the projector.
+    #[error(
+        "{found} shots with Gray codes; the projector needs at least {needed} board poses \
+         with Gray codes, tilted differently (add `graycode` shots to calib.toml)"
+    )]
+    TooFewGrayCodeShots { found: usize, needed: usize },
     /// A shot seeing the board nearly edge-on: its corners constrain little
     /// and locate badly.
     #[error(

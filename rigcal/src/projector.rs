@@ -124,7 +124,7 @@ pub fn calibrate_projector(
         finest.push(f);
     }
     if points.len() < 3 {
-        return Err(RigcalError::TooFewShots {
+        return Err(RigcalError::TooFewGrayCodeShots {
             found: points.len(),
             needed: 3,
         });
