@@ -39,7 +39,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let calibration = calibrate_bundle(&bundle, &CalibOptions::default())?;
         let set = select_views(&bundle.manifest, &calibration, &ViewFilter::default())?;
         let inputs = SceneInputs::assemble(&bundle, &calibration, &set)?;
-        let name = scan.file_name().unwrap().to_string_lossy().to_string();
+        let name = scan.file_name().map_or_else(
+            || scan.display().to_string(),
+            |n| n.to_string_lossy().to_string(),
+        );
         let m = match measure_backlight(&inputs, &BacklightOptions::default()) {
             Ok(m) => m,
             Err(why) => {

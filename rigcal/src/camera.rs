@@ -2,12 +2,14 @@
 //! shot, Zhang's closed form as the start, the joint refinement, then a
 //! verdict on whether the result is good enough to scan with.
 
-use crate::detect::{find_board, Corner};
+use crate::detect::{find_board_in, grey_levels, Corner};
 use crate::error::RigcalError;
-use crate::model::{project, Pose};
+use crate::model::{project, Lens, Pose};
 use crate::refine::{refine, ShotPoints};
+use crate::sheet::thumbnail;
 use crate::zhang;
 use glam::{DMat4, DVec2};
+use image::GrayImage;
 use matscan_scan::calib_bundle::CalibManifest;
 use matscan_scan::camera::Intrinsics;
 use matscan_scan::image_io::read_rgb;
@@ -68,14 +70,8 @@ pub struct ShotReport {
 /// What the calibration found and how well it explains the photos.
 #[derive(Debug, Clone, Serialize)]
 pub struct CameraReport {
-    pub width: u32,
-    pub height: u32,
-    pub fx: f64,
-    pub fy: f64,
-    pub cx: f64,
-    pub cy: f64,
-    /// OpenCV k1 k2 p1 p2 k3.
-    pub distortion: [f64; 5],
+    #[serde(flatten)]
+    pub lens: Lens,
     /// One standard deviation of fx fy cx cy k1 k2 p1 p2 k3 (absent where
     /// the shots leave the system singular).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -105,6 +101,9 @@ pub struct CameraCalibration {
     pub corners: Vec<(Vec<Corner>, Vec<DVec2>)>,
     /// Each shot's board-to-camera pose, in the report's order.
     pub poses: Vec<Pose>,
+    /// Each shot's grey image, [`crate::sheet::TILE`] wide, in the
+    /// report's order (none when solved from corners alone).
+    pub thumbnails: Vec<GrayImage>,
 }
 
 /// Every shot with its position's index, positions in order.
@@ -145,24 +144,28 @@ pub fn calibrate_camera(
             needed: acceptance.min_shots,
         });
     }
-    type Found = Result<((u32, u32), Vec<Corner>), RigcalError>;
+    type Found = Result<((u32, u32), Vec<Corner>, GrayImage), RigcalError>;
     let found: Vec<Found> = shots
         .par_iter()
         .map(|(_, shot)| {
             let path = dir.join(&shot.file);
             let photo = read_shot(&path)?;
-            Ok((
-                (photo.width, photo.height),
-                find_board(&photo, &board, &path)?,
-            ))
+            let grey = grey_levels(&photo);
+            let corners = find_board_in(&photo, &grey, &board, &path)?;
+            Ok(((photo.width, photo.height), corners, thumbnail(&grey)))
         })
         .collect();
     let mut detections = Vec::with_capacity(found.len());
     for r in found {
         detections.push(r?);
     }
-    let (width, height) = detections[0].0;
-    for ((size, _), (_, shot)) in detections.iter().zip(&shots) {
+    let Some(&((width, height), _, _)) = detections.first() else {
+        return Err(RigcalError::TooFewShots {
+            found: 0,
+            needed: acceptance.min_shots.max(1),
+        });
+    };
+    for ((size, _, _), (_, shot)) in detections.iter().zip(&shots) {
         if *size != (width, height) {
             return Err(RigcalError::SizeMismatch {
                 path: dir.join(&shot.file),
@@ -173,8 +176,10 @@ pub fn calibrate_camera(
             });
         }
     }
-    let corners = detections.into_iter().map(|(_, c)| c).collect();
-    solve_camera(dir, manifest, corners, (width, height), acceptance)
+    let (corners, thumbnails) = detections.into_iter().map(|(_, c, t)| (c, t)).unzip();
+    let mut calibration = solve_camera(dir, manifest, corners, (width, height), acceptance)?;
+    calibration.thumbnails = thumbnails;
+    Ok(calibration)
 }
 
 /// The camera from corners already found: one list per shot, in the
@@ -333,13 +338,7 @@ fn judge(
         camera,
         camera_to_world,
         report: CameraReport {
-            width: camera.width,
-            height: camera.height,
-            fx: camera.fx,
-            fy: camera.fy,
-            cx: camera.cx,
-            cy: camera.cy,
-            distortion: camera.distortion,
+            lens: Lens::from(&camera),
             sigma: refined.sigma,
             rms_px,
             coverage,
@@ -351,5 +350,6 @@ fn judge(
         },
         corners: detections.into_iter().zip(reprojected).collect(),
         poses: refined.poses,
+        thumbnails: Vec::new(),
     }
 }

@@ -43,16 +43,21 @@ pub(crate) fn luminance(p: &[f32; 3]) -> f32 {
     }
 }
 
+/// The `q`-quantile of `values` (0 for none), by selection rather than a
+/// full sort: the photos have a million pixels.
+pub(crate) fn percentile(values: &[f32], q: f64) -> f32 {
+    if values.is_empty() {
+        return 0.0;
+    }
+    let mut v = values.to_vec();
+    let k = ((v.len() as f64 * q) as usize).min(v.len() - 1);
+    *v.select_nth_unstable_by(k, f32::total_cmp).1
+}
+
 /// The photo's display-level grey image (see the module doc).
 pub fn grey_levels(photo: &RgbRaster) -> image::GrayImage {
     let luminance: Vec<f32> = photo.data.iter().map(|p| luminance(p).max(0.0)).collect();
-    let mut sorted = luminance.clone();
-    sorted.sort_by(f32::total_cmp);
-    let top = sorted
-        .get(((sorted.len() as f64 * 0.995) as usize).min(sorted.len().saturating_sub(1)))
-        .copied()
-        .unwrap_or(0.0)
-        .max(1e-12);
+    let top = percentile(&luminance, 0.995).max(1e-12);
     let pixels = luminance
         .iter()
         .map(|&y| ((y / top).clamp(0.0, 1.0).powf(1.0 / 2.2) * 255.0).round() as u8)
@@ -69,13 +74,22 @@ pub fn find_board(
     board: &Chessboard,
     path: &Path,
 ) -> Result<Vec<Corner>, RigcalError> {
+    find_board_in(photo, &grey_levels(photo), board, path)
+}
+
+/// [`find_board`] with the photo's [`grey_levels`] already made.
+pub fn find_board_in(
+    photo: &RgbRaster,
+    grey: &image::GrayImage,
+    board: &Chessboard,
+    path: &Path,
+) -> Result<Vec<Corner>, RigcalError> {
     let not_found = |reason: String| RigcalError::BoardNotFound {
         path: path.to_path_buf(),
         reason,
     };
-    let grey = grey_levels(photo);
     let detection = detect_chessboard_best(
-        &grey,
+        grey,
         &default_chess_config(),
         &ChessboardParams::sweep_default(),
     )

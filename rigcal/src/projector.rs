@@ -18,9 +18,9 @@
 //! homography averages.
 
 use crate::camera::{read_shot, CameraCalibration};
-use crate::detect::{corner_spacing, luminance, Corner};
+use crate::detect::{corner_spacing, luminance, percentile, Corner};
 use crate::error::RigcalError;
-use crate::model::{project, Pose};
+use crate::model::{project, Lens, Pose};
 use crate::refine::{least_squares, refine, ShotPoints, PROJECTOR_FIXED};
 use crate::zhang;
 use glam::{DMat4, DQuat, DVec2, DVec3};
@@ -53,12 +53,8 @@ pub struct ProjectorShotReport {
 
 #[derive(Debug, Clone, Serialize)]
 pub struct ProjectorReport {
-    pub width: u32,
-    pub height: u32,
-    pub fx: f64,
-    pub fy: f64,
-    pub cx: f64,
-    pub cy: f64,
+    #[serde(flatten)]
+    pub lens: Lens,
     /// Reprojection RMS in projector pixels.
     pub rms_px: f64,
     /// Spread of the projector's pose over the shots: largest distance of
@@ -203,12 +199,7 @@ pub fn calibrate_projector(
             .map(|(name, c)| (name.clone(), *c * projector_to_camera))
             .collect(),
         report: ProjectorReport {
-            width: k.width,
-            height: k.height,
-            fx: k.fx,
-            fy: k.fy,
-            cx: k.cx,
-            cy: k.cy,
+            lens: Lens::from(&k),
             rms_px: (sum / count.max(1) as f64).sqrt(),
             pose_spread: spread,
             pose_spread_deg: spread_deg,
@@ -385,9 +376,7 @@ fn decode(folder: &Path, size: ProjectorSize, axis: GrayAxis) -> Result<Decoded,
     let strongest: Vec<f32> = (0..pixels)
         .map(|i| differences.iter().map(|d| d[i].abs()).fold(0.0, f32::max))
         .collect();
-    let mut sorted = strongest.clone();
-    sorted.sort_by(f32::total_cmp);
-    let floor = 0.2 * sorted.get(pixels * 99 / 100).copied().unwrap_or(0.0);
+    let floor = 0.2 * percentile(&strongest, 0.99);
     let lit: Vec<usize> = (0..pixels)
         .filter(|&i| strongest[i] > floor && floor > 0.0)
         .collect();

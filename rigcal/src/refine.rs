@@ -137,26 +137,101 @@ pub fn refine(
         width: camera.width,
         height: camera.height,
     };
-    let mut params: Vec<f64> = crate::model::pack_intrinsics(camera).to_vec();
+    let mut start: Vec<f64> = crate::model::pack_intrinsics(camera).to_vec();
     for pose in poses {
-        params.extend_from_slice(&pose.pack());
+        start.extend_from_slice(&pose.pack());
     }
-    let mut cost = problem.cost(&params);
+    let solution = levenberg_marquardt(
+        start,
+        |p| problem.cost(p),
+        |p| problem.normal_equations(p),
+        fixed,
+    );
+    let residuals: usize = shots.iter().map(|s| 2 * s.board.len()).sum();
+    let dof = residuals.saturating_sub(problem.unknowns()).max(1);
+    let variance = solution.cost / dof as f64;
+    let sigma = solution.jtj.try_inverse().map(|inverse| {
+        std::array::from_fn(|k| {
+            if fixed.contains(&k) {
+                0.0
+            } else {
+                (inverse[(k, k)].max(0.0) * variance).sqrt()
+            }
+        })
+    });
+    let params = &solution.params;
+    Refined {
+        camera: unpack_intrinsics(params, camera.width, camera.height),
+        poses: (0..shots.len())
+            .map(|s| Pose::unpack(&params[INTRINSIC_COUNT + POSE_COUNT * s..][..POSE_COUNT]))
+            .collect(),
+        sigma,
+        iterations: solution.iterations,
+    }
+}
+
+/// A small dense least-squares problem by Levenberg-Marquardt: `residuals`
+/// of the parameters, minimised from `start` (central-difference
+/// Jacobian). For the few-unknown fits beside the main refinement.
+pub fn least_squares(start: &[f64], residuals: impl Fn(&[f64]) -> Vec<f64>) -> Vec<f64> {
+    let normal_equations = |params: &[f64]| {
+        let r = residuals(params);
+        let mut jac = DMatrix::<f64>::zeros(r.len(), params.len());
+        for k in 0..params.len() {
+            let h = 1e-6 * params[k].abs().max(1e-3);
+            let mut plus = params.to_vec();
+            plus[k] += h;
+            let mut minus = params.to_vec();
+            minus[k] -= h;
+            let (rp, rm) = (residuals(&plus), residuals(&minus));
+            for i in 0..r.len().min(rp.len()).min(rm.len()) {
+                jac[(i, k)] = (rp[i] - rm[i]) / (2.0 * h);
+            }
+        }
+        let jtr = jac.transpose() * DVector::from_column_slice(&r);
+        (jac.transpose() * jac, jtr)
+    };
+    let cost = |params: &[f64]| residuals(params).iter().map(|v| v * v).sum::<f64>();
+    levenberg_marquardt(start.to_vec(), cost, normal_equations, &[]).params
+}
+
+/// Where a Levenberg-Marquardt run ends.
+struct Solution {
+    params: Vec<f64>,
+    cost: f64,
+    /// J^T J at `params`, with held parameters' rows and columns those of
+    /// the identity.
+    jtj: DMatrix<f64>,
+    iterations: usize,
+}
+
+/// Levenberg-Marquardt from `start`: `cost` of the parameters, `normal`
+/// their J^T J and J^T r; the parameters in `fixed` stay at their start.
+/// A step that raises the cost (or makes it non-finite) is refused and the
+/// damping raised, so no NaN reaches the result.
+fn levenberg_marquardt(
+    start: Vec<f64>,
+    cost: impl Fn(&[f64]) -> f64,
+    normal: impl Fn(&[f64]) -> (DMatrix<f64>, DVector<f64>),
+    fixed: &[usize],
+) -> Solution {
+    let held = |(mut jtj, mut jtr): (DMatrix<f64>, DVector<f64>)| {
+        for &k in fixed {
+            jtj.row_mut(k).fill(0.0);
+            jtj.column_mut(k).fill(0.0);
+            jtj[(k, k)] = 1.0;
+            jtr[k] = 0.0;
+        }
+        (jtj, jtr)
+    };
+    let mut params = start;
+    let mut current = cost(&params);
     let mut lambda = 1e-3;
     let mut iterations = 0;
-    let (mut jtj, mut jtr) = problem.normal_equations(&params);
+    let (mut jtj, mut jtr) = held(normal(&params));
     while iterations < MAX_ITERATIONS {
         iterations += 1;
         let mut damped = jtj.clone();
-        for &k in fixed {
-            damped.row_mut(k).fill(0.0);
-            damped.column_mut(k).fill(0.0);
-            damped[(k, k)] = 1.0;
-        }
-        let mut rhs = jtr.clone();
-        for &k in fixed {
-            rhs[k] = 0.0;
-        }
         for k in 0..damped.nrows() {
             damped[(k, k)] += lambda * jtj[(k, k)].max(1e-12);
         }
@@ -164,16 +239,16 @@ pub fn refine(
             lambda *= 10.0;
             continue;
         };
-        let step = chol.solve(&(-&rhs));
+        let step = chol.solve(&(-&jtr));
         let trial: Vec<f64> = params.iter().zip(step.iter()).map(|(p, d)| p + d).collect();
-        let trial_cost = problem.cost(&trial);
-        if trial_cost.is_finite() && trial_cost < cost {
-            let gain = (cost - trial_cost) / cost.max(1e-300);
+        let trial_cost = cost(&trial);
+        if trial_cost.is_finite() && trial_cost < current {
+            let gain = (current - trial_cost) / current.max(1e-300);
             params = trial;
-            cost = trial_cost;
+            current = trial_cost;
             lambda = (lambda * 0.3).max(1e-12);
-            (jtj, jtr) = problem.normal_equations(&params);
-            if gain < 1e-12 || cost < 1e-20 {
+            (jtj, jtr) = held(normal(&params));
+            if gain < 1e-12 || current < 1e-20 {
                 break;
             }
         } else {
@@ -183,87 +258,10 @@ pub fn refine(
             }
         }
     }
-    let residuals: usize = shots.iter().map(|s| 2 * s.board.len()).sum();
-    let dof = residuals.saturating_sub(problem.unknowns()).max(1);
-    let variance = cost / dof as f64;
-    for &k in fixed {
-        jtj.row_mut(k).fill(0.0);
-        jtj.column_mut(k).fill(0.0);
-        jtj[(k, k)] = 1.0;
-    }
-    let sigma = jtj.try_inverse().map(|inverse| {
-        std::array::from_fn(|k| {
-            if fixed.contains(&k) {
-                0.0
-            } else {
-                (inverse[(k, k)].max(0.0) * variance).sqrt()
-            }
-        })
-    });
-    Refined {
-        camera: unpack_intrinsics(&params, camera.width, camera.height),
-        poses: (0..shots.len())
-            .map(|s| Pose::unpack(&params[INTRINSIC_COUNT + POSE_COUNT * s..][..POSE_COUNT]))
-            .collect(),
-        sigma,
+    Solution {
+        params,
+        cost: current,
+        jtj,
         iterations,
     }
-}
-
-/// A small dense least-squares problem by Levenberg-Marquardt: `residuals`
-/// of the parameters, minimised from `start` (central-difference
-/// Jacobian). For the few-unknown fits beside the main refinement.
-pub fn least_squares(start: &[f64], residuals: impl Fn(&[f64]) -> Vec<f64>) -> Vec<f64> {
-    let n = start.len();
-    let mut params = start.to_vec();
-    let cost_of = |r: &[f64]| r.iter().map(|v| v * v).sum::<f64>();
-    let mut r = residuals(&params);
-    let mut cost = cost_of(&r);
-    let mut lambda = 1e-3;
-    for _ in 0..MAX_ITERATIONS {
-        let m = r.len();
-        let mut jac = DMatrix::<f64>::zeros(m, n);
-        for k in 0..n {
-            let h = 1e-6 * params[k].abs().max(1e-3);
-            let mut plus = params.clone();
-            plus[k] += h;
-            let mut minus = params.clone();
-            minus[k] -= h;
-            let (rp, rm) = (residuals(&plus), residuals(&minus));
-            for i in 0..m.min(rp.len()).min(rm.len()) {
-                jac[(i, k)] = (rp[i] - rm[i]) / (2.0 * h);
-            }
-        }
-        let jtj = jac.transpose() * &jac;
-        let jtr = jac.transpose() * DVector::from_column_slice(&r);
-        let mut improved = false;
-        while lambda < 1e12 {
-            let mut damped = jtj.clone();
-            for k in 0..n {
-                damped[(k, k)] += lambda * jtj[(k, k)].max(1e-12);
-            }
-            let Some(chol) = damped.cholesky() else {
-                lambda *= 10.0;
-                continue;
-            };
-            let step = chol.solve(&(-&jtr));
-            let trial: Vec<f64> = params.iter().zip(step.iter()).map(|(p, d)| p + d).collect();
-            let tr = residuals(&trial);
-            let trial_cost = cost_of(&tr);
-            if trial_cost.is_finite() && trial_cost < cost {
-                let gain = (cost - trial_cost) / cost.max(1e-300);
-                params = trial;
-                r = tr;
-                cost = trial_cost;
-                lambda = (lambda * 0.3).max(1e-12);
-                improved = gain > 1e-12;
-                break;
-            }
-            lambda *= 10.0;
-        }
-        if !improved {
-            break;
-        }
-    }
-    params
 }

@@ -2,12 +2,10 @@
 //! corner's reprojection error drawn as a line magnified [`MAGNIFY`] times,
 //! so a user sees at a glance which shot is off and where.
 
-use crate::camera::{read_shot, CameraCalibration};
-use crate::detect::grey_levels;
+use crate::camera::CameraCalibration;
 use crate::error::RigcalError;
-use image::{Rgb, RgbImage};
+use image::{GrayImage, Rgb, RgbImage};
 use matscan_scan::atomic::write_atomic;
-use matscan_scan::calib_bundle::CalibManifest;
 use std::path::{Path, PathBuf};
 
 /// Width of one shot's tile, pixels.
@@ -18,33 +16,34 @@ pub const MAGNIFY: f64 = 50.0;
 pub const SHEET_FILE: &str = "contact-sheet.png";
 const COLUMNS: u32 = 4;
 
-/// Draws the sheet of `calibration` (made from the bundle in `dir`).
-pub fn contact_sheet(
-    dir: &Path,
-    manifest: &CalibManifest,
-    calibration: &CameraCalibration,
-) -> Result<RgbImage, RigcalError> {
-    let files: Vec<PathBuf> = manifest
-        .positions
-        .iter()
-        .flat_map(|p| p.shots.iter().map(|s| dir.join(&s.file)))
-        .collect();
+/// A shot's grey image scaled to [`TILE`] wide, as the sheet shows it.
+pub fn thumbnail(grey: &GrayImage) -> GrayImage {
+    let (w, h) = (grey.width().max(1), grey.height());
+    let tile_h = ((f64::from(h) * f64::from(TILE) / f64::from(w)).round() as u32).max(1);
+    image::imageops::resize(grey, TILE, tile_h, image::imageops::FilterType::Triangle)
+}
+
+/// Draws the sheet of `calibration` from its shots' thumbnails (a shot
+/// without one gets a black tile).
+pub fn contact_sheet(calibration: &CameraCalibration) -> RgbImage {
     let (w, h) = (
         calibration.camera.width.max(1),
         calibration.camera.height.max(1),
     );
     let scale = f64::from(TILE) / f64::from(w);
     let tile_h = ((f64::from(h) * scale).round() as u32).max(1);
-    let rows = (files.len() as u32).div_ceil(COLUMNS).max(1);
+    let shots = calibration.corners.len() as u32;
+    let rows = shots.div_ceil(COLUMNS).max(1);
     let mut sheet = RgbImage::new(TILE * COLUMNS, tile_h * rows);
-    for (k, (file, (corners, reprojected))) in files.iter().zip(&calibration.corners).enumerate() {
-        let grey = grey_levels(&read_shot(file)?);
-        let small =
-            image::imageops::resize(&grey, TILE, tile_h, image::imageops::FilterType::Triangle);
+    for (k, (corners, reprojected)) in calibration.corners.iter().enumerate() {
         let (ox, oy) = ((k as u32 % COLUMNS) * TILE, (k as u32 / COLUMNS) * tile_h);
-        for (x, y, p) in small.enumerate_pixels() {
-            let v = p.0[0] / 2 + 64;
-            sheet.put_pixel(ox + x, oy + y, Rgb([v, v, v]));
+        if let Some(small) = calibration.thumbnails.get(k) {
+            for (x, y, p) in small.enumerate_pixels() {
+                if x < TILE && y < tile_h {
+                    let v = p.0[0] / 2 + 64;
+                    sheet.put_pixel(ox + x, oy + y, Rgb([v, v, v]));
+                }
+            }
         }
         let mut plot = |x: f64, y: f64, colour: Rgb<u8>| {
             let (x, y) = (x * scale, y * scale);
@@ -66,17 +65,15 @@ pub fn contact_sheet(
             }
         }
     }
-    Ok(sheet)
+    sheet
 }
 
 /// Draws the sheet and writes it to `out_dir` atomically.
 pub fn write_contact_sheet(
-    dir: &Path,
-    manifest: &CalibManifest,
     calibration: &CameraCalibration,
     out_dir: &Path,
 ) -> Result<PathBuf, RigcalError> {
-    let sheet = contact_sheet(dir, manifest, calibration)?;
+    let sheet = contact_sheet(calibration);
     let path = out_dir.join(SHEET_FILE);
     let mut bytes = Vec::new();
     sheet

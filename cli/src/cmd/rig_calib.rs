@@ -90,23 +90,10 @@ pub fn run_rig(a: RigArgs) -> Result<()> {
         lights.as_ref().map(|(p, m)| (*p, m)),
     )
     .with_context(|| format!("writing the calibration to {}", out.display()))?;
-    let sheet = write_contact_sheet(&a.bundle, &manifest, &calibration, &out)
+    let sheet = write_contact_sheet(&calibration, &out)
         .with_context(|| format!("drawing the contact sheet into {}", out.display()))?;
     let r = &calibration.report;
-    println!(
-        "camera {}x{}: fx {:.2} fy {:.2} cx {:.2} cy {:.2}, distortion {:.4} {:.4} {:.5} {:.5} {:.4}",
-        r.width,
-        r.height,
-        r.fx,
-        r.fy,
-        r.cx,
-        r.cy,
-        r.distortion[0],
-        r.distortion[1],
-        r.distortion[2],
-        r.distortion[3],
-        r.distortion[4]
-    );
+    println!("camera {}", r.lens);
     println!(
         "{} shots, reprojection RMS {:.3} px, coverage {:.0} %, {seconds:.2} s",
         r.shots.len(),
@@ -128,14 +115,9 @@ pub fn run_rig(a: RigArgs) -> Result<()> {
     if let Some(p) = &projector {
         let r = &p.report;
         println!(
-            "projector {}x{}: fx {:.2} fy {:.2} cx {:.2} cy {:.2}; {} Gray-code shots, \
-             reprojection RMS {:.3} projector px, pose spread {:.2} mm / {:.3} deg",
-            r.width,
-            r.height,
-            r.fx,
-            r.fy,
-            r.cx,
-            r.cy,
+            "projector {}; {} Gray-code shots, reprojection RMS {:.3} projector px, pose \
+             spread {:.2} mm / {:.3} deg",
+            r.lens,
             r.shots.len(),
             r.rms_px,
             1000.0 * r.pose_spread,
