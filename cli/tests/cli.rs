@@ -226,58 +226,6 @@ fn calib_writes_the_documented_maps_and_check_reports_json() {
 }
 
 #[test]
-fn calib_rig_calibrates_the_simulated_rigs_board_photos_and_names_a_missing_one() {
-    let tmp = tempfile::tempdir().unwrap();
-    let bundle = tmp.path().join("board");
-    let b = bundle.to_str().unwrap();
-    let o = matscan(&[
-        "calib",
-        "board",
-        "--out",
-        b,
-        "--size",
-        "448",
-        "--positions",
-        "2",
-        "--shots",
-        "6",
-        "--projector-shots",
-        "3",
-        "--samples",
-        "4",
-        "--seed",
-        "1",
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let o = matscan(&["calib", "rig", b]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let out = stdout(&o);
-    assert!(
-        out.contains("15 shots") && out.contains("3 Gray-code shots"),
-        "{out}"
-    );
-    for f in ["rig.toml", "calib-report.toml", "contact-sheet.png"] {
-        assert!(bundle.join("result").join(f).exists(), "missing {f}");
-    }
-    let rig = bundle.join("result/rig.toml");
-    let o = matscan(&[
-        "calib",
-        "compare",
-        rig.to_str().unwrap(),
-        bundle.join("truth-rig.toml").to_str().unwrap(),
-    ]);
-    assert!(o.status.success() && stdout(&o).contains("projector: focal length"));
-    // A shot the bundle lists but the folder lacks: named, nothing written.
-    std::fs::remove_dir_all(bundle.join("result")).unwrap();
-    std::fs::remove_file(bundle.join("p1/board-03.exr")).unwrap();
-    let o = matscan(&["calib", "rig", b]);
-    assert_eq!(o.status.code(), Some(1));
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert!(err.contains("p1/board-03.exr"), "{err}");
-    assert!(!bundle.join("result").exists());
-}
-
-#[test]
 fn a_malformed_manifest_is_reported_with_file_and_key() {
     let tmp = tempfile::tempdir().unwrap();
     let scan = tmp.path().join("scan");

@@ -5,6 +5,7 @@
 //! here (the package sets `autotests = false`).
 
 mod bench_eval;
+mod calib_capture;
 mod capture_now_cli;
 mod cli;
 mod daemon_e2e;

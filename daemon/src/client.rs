@@ -287,6 +287,122 @@ pub fn capture_now(args: &CaptureNowOptions) -> u8 {
     }
 }
 
+#[derive(Clone, Debug)]
+pub struct CalibCaptureOptions {
+    /// The daemon's control socket.
+    pub socket: PathBuf,
+    /// What to photograph (`board`).
+    pub target: String,
+    /// Board poses per position (default: the daemon's `[calibration]`).
+    pub shots: Option<usize>,
+    /// Gray-code poses for the projector (default: the daemon's).
+    pub projector_shots: Option<usize>,
+    /// Print one JSON object (`bundle` and `summary`).
+    pub json: bool,
+}
+
+/// Asks for a calibration capture and follows it to the end; `event` hears
+/// each prompt and progress event. Returns the published bundle and its
+/// summary.
+pub fn request_calibration(
+    socket: &Path,
+    target: &str,
+    shots: Option<usize>,
+    projector_shots: Option<usize>,
+    event: &mut dyn FnMut(&Value),
+) -> Result<(PathBuf, Value), ClientError> {
+    let mut conn = Connection::open(socket)?;
+    let mut request = json!({"cmd": "calib_capture", "target": target});
+    if let Some(n) = shots {
+        request["shots"] = json!(n);
+    }
+    if let Some(n) = projector_shots {
+        request["projector_shots"] = json!(n);
+    }
+    let reply = conn.request(&request)?;
+    let job = reply["job"]
+        .as_u64()
+        .ok_or_else(|| conn.protocol(format!("a calibration reply without a job: {reply}")))?;
+    conn.send(&json!({"cmd": "watch", "job": job}))?;
+    let mut published: Option<(PathBuf, Value)> = None;
+    loop {
+        let e = conn.receive()?;
+        match e["event"].as_str() {
+            Some("done") => {
+                let bundle = e["bundle"]
+                    .as_str()
+                    .map(PathBuf::from)
+                    .ok_or_else(|| conn.protocol(format!("a done event without a bundle: {e}")))?;
+                published = Some((bundle, e["summary"].clone()));
+            }
+            Some("finished") => {
+                return published
+                    .ok_or_else(|| conn.protocol(format!("job {job} finished without a bundle")))
+            }
+            Some("failed") => {
+                return Err(ClientError::CaptureFailed(
+                    e["error"].as_str().unwrap_or("no reason given").to_string(),
+                ))
+            }
+            Some(_) => event(&e),
+            None if e["ok"] == false => {
+                return Err(ClientError::Refused(
+                    e["error"].as_str().unwrap_or("no reason given").to_string(),
+                ))
+            }
+            None => return Err(conn.protocol(format!("unexpected reply {e}"))),
+        }
+    }
+}
+
+/// `matscan calib capture`: prompts the operator, follows the photos and
+/// prints the bundle; returns the exit code.
+pub fn calib_capture(args: &CalibCaptureOptions) -> u8 {
+    let json = args.json;
+    let mut event = |e: &Value| match e["event"].as_str() {
+        Some("prompt") if !json => eprintln!(
+            "> {}, then press the footswitch",
+            e["what"].as_str().unwrap_or("")
+        ),
+        Some("progress") if !json => eprintln!(
+            "{}/{} {}",
+            e["done"],
+            e["total"],
+            e["what"].as_str().unwrap_or("")
+        ),
+        _ => {}
+    };
+    match request_calibration(
+        &args.socket,
+        &args.target,
+        args.shots,
+        args.projector_shots,
+        &mut event,
+    ) {
+        Ok((bundle, summary)) => {
+            if json {
+                println!("{}", json!({"bundle": bundle, "summary": summary}));
+            } else {
+                println!("{}", bundle.display());
+                println!(
+                    "{} positions, {} board shots ({} with Gray codes), {} photos, {:.1} s",
+                    summary["positions"],
+                    summary["shots"],
+                    summary["graycode_shots"],
+                    summary["photos"],
+                    summary["seconds"].as_f64().unwrap_or(0.0)
+                );
+                println!(
+                    "next: matscan calib rig {} --lights-from <the current rig file>",
+                    bundle.display()
+                );
+            }
+            0
+        }
+        Err(e) => report(&e, json),
+    }
+}
+
 /// The daemon's `status` reply.
 pub fn fetch_status(socket: &Path) -> Result<Value, ClientError> {
     Connection::open(socket)?.request(&json!({"cmd": "status"}))

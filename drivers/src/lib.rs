@@ -54,6 +54,7 @@ pub mod usb;
 
 pub use error::DriverError;
 pub use traits::{
-    monotonic_now, Camera, CameraSettings, Checker, Frame, Level, LightController, LightId,
-    LightState, Positioner, Press, Projector, ProjectorPattern, Trigger,
+    monotonic_now, Camera, CameraSettings, Checker, Frame, GrayCode, Level, LightController,
+    LightId, LightState, Positioner, Press, Projector, ProjectorPattern, TargetHand,
+    TargetPlacement, Trigger,
 };

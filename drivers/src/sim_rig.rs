@@ -21,6 +21,12 @@
 //! three positions of seven captures each costs six passes: four at the
 //! first position (its lights, then each new pattern), one at each other.
 //!
+//! A calibration target (a printed board) takes the object's place while
+//! [`SimHand`], the simulated operator, holds it up: the camera then
+//! renders the board's scene under the same rig, and a new placement
+//! starts a new cache, prefetching the patterns the hand says the next
+//! photos will show (a Gray-code sequence renders in one pass).
+//!
 //! Boundaries: renders through `matscan_sim::render` only; writes nothing
 //! but what [`SimDisk`] is asked to.
 
@@ -29,10 +35,11 @@ use crate::lights::{
     memory_pair, Board, BoardConfig, BoardFaults, HostConfig, Port, RunningBoard, SerialLights,
 };
 use crate::traits::{
-    monotonic_now, Camera, CameraSettings, LightController, LightId, LightState, Positioner, Press,
-    Projector, ProjectorPattern, Trigger,
+    monotonic_now, Camera, CameraSettings, GrayCode, LightController, LightId, LightState,
+    Positioner, Press, Projector, ProjectorPattern, TargetHand, TargetPlacement, Trigger,
 };
 use matscan_scan::raster::RgbRaster;
+use matscan_sim::calib_target::BoardHolder;
 use matscan_sim::render::{CaptureSpec, RenderOptions, Renderer};
 use matscan_sim::scene::Scene;
 use std::path::Path;
@@ -47,6 +54,9 @@ pub const LIGHTS_ID: &str = "sim:lights";
 pub const PROJECTOR_ID: &str = "sim:projector";
 pub const POSITIONER_ID: &str = "sim:turntable";
 pub const TRIGGER_ID: &str = "sim:footswitch";
+pub const HAND_ID: &str = "sim:operator";
+/// Inner corners of the simulated operator's printed board.
+pub const BOARD_INNER_CORNERS: (u32, u32) = (9, 6);
 
 /// Faults to inject.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -96,11 +106,17 @@ impl Default for SimConfig {
     }
 }
 
-/// What the projector and the turntable are doing.
+/// What the projector, the turntable and the operator are doing.
 #[derive(Debug)]
 struct Stage {
     pattern: ProjectorPattern,
     position: usize,
+    /// The calibration target in the object's place, if one is held up.
+    target: Option<Arc<Scene>>,
+    /// Counts target moves: a photo cache of another placement is stale.
+    placement: u64,
+    /// The patterns the next photos of this placement will show.
+    prefetch: Vec<ProjectorPattern>,
 }
 
 /// The parts of a simulated rig, each usable on its own.
@@ -113,6 +129,7 @@ pub struct SimulatedRig {
     /// Presses the footswitch.
     pub footswitch: FootswitchButton,
     pub disk: SimDisk,
+    pub hand: SimHand,
 }
 
 impl SimulatedRig {
@@ -132,6 +149,7 @@ impl SimulatedRig {
             trigger: bench.trigger,
             footswitch: bench.footswitch,
             disk: bench.disk,
+            hand: bench.hand,
         })
     }
 }
@@ -147,6 +165,7 @@ pub struct SimBench {
     pub trigger: SimTrigger,
     pub footswitch: FootswitchButton,
     pub disk: SimDisk,
+    pub hand: SimHand,
     /// The simulated light controller serving `board_port`.
     pub board: RunningBoard,
 }
@@ -169,6 +188,9 @@ impl SimBench {
         let stage = Arc::new(Mutex::new(Stage {
             pattern: ProjectorPattern::Black,
             position: 0,
+            target: None,
+            placement: 0,
+            prefetch: Vec::new(),
         }));
         let board = RunningBoard::spawn(
             board_port,
@@ -190,6 +212,10 @@ impl SimBench {
             },
             projector: SimProjector {
                 scene: scene.clone(),
+                stage: stage.clone(),
+            },
+            hand: SimHand {
+                holder: BoardHolder::new(&scene.rig, BOARD_INNER_CORNERS, config.seed),
                 stage: stage.clone(),
             },
             positioner: SimPositioner { scene, stage },
@@ -234,6 +260,7 @@ pub struct SimCamera {
 /// renderer returns it.
 struct PhotoCache {
     position: usize,
+    placement: u64,
     ambient: RgbRaster,
     emitters: Vec<(Emitter, RgbRaster)>,
 }
@@ -302,7 +329,25 @@ impl SimCamera {
                 }
             }
         }
-        let kept = self.cache.take().filter(|c| c.position == position);
+        let (placement, target, prefetch) = {
+            let stage = lock(&self.stage);
+            (
+                stage.placement,
+                stage.target.is_some(),
+                stage.prefetch.clone(),
+            )
+        };
+        let kept = self
+            .cache
+            .take()
+            .filter(|c| c.position == position && c.placement == placement);
+        // A target's photos show the patterns its placement announced; a
+        // scan's show again what earlier positions showed.
+        let ahead = if target {
+            prefetch
+        } else {
+            self.patterns_seen.clone()
+        };
         let wanted: Vec<Emitter> = match &kept {
             Some(c) => terms
                 .iter()
@@ -313,7 +358,11 @@ impl SimCamera {
                 .lights_of(position)
                 .into_iter()
                 .map(Emitter::Light)
-                .chain(self.patterns_seen.iter().map(|p| Emitter::Projector(*p)))
+                .chain(ahead.iter().map(|p| Emitter::Projector(*p)))
+                .chain(terms.iter().map(|(e, _)| *e).filter(|e| match e {
+                    Emitter::Projector(p) => !ahead.contains(p),
+                    Emitter::Light(_) => false,
+                }))
                 .collect(),
         };
         let cache = match kept {
@@ -322,6 +371,7 @@ impl SimCamera {
                 let images = self.render(position, &wanted)?;
                 let mut cache = kept.unwrap_or(PhotoCache {
                     position,
+                    placement,
                     ambient: images.ambient,
                     emitters: Vec::new(),
                 });
@@ -355,7 +405,9 @@ impl SimCamera {
             device: CAMERA_ID.to_string(),
             reason: e.to_string(),
         };
-        let renderer = Renderer::new(&self.scene).map_err(render_err)?;
+        let scene = lock(&self.stage).target.clone();
+        let scene = scene.as_deref().unwrap_or(&self.scene);
+        let renderer = Renderer::new(scene).map_err(render_err)?;
         let opts = RenderOptions {
             samples: self.config.samples.max(1),
             seed: self.config.seed,
@@ -498,6 +550,67 @@ impl Projector for SimProjector {
 
     fn pattern(&self) -> ProjectorPattern {
         lock(&self.stage).pattern
+    }
+}
+
+/// The simulated operator: holds a printed board up in the object's place
+/// ([`BoardHolder`] picks the poses), as a person does for a calibration.
+pub struct SimHand {
+    holder: BoardHolder,
+    stage: Arc<Mutex<Stage>>,
+}
+
+impl SimHand {
+    /// The board the operator holds.
+    pub fn board(&self) -> &matscan_scan::calib_bundle::Chessboard {
+        self.holder.board()
+    }
+
+    /// Where the board stands at its reference placement, board to world.
+    pub fn reference_to_world(&self) -> glam::DMat4 {
+        self.holder.reference_to_world()
+    }
+}
+
+impl TargetHand for SimHand {
+    fn id(&self) -> &str {
+        HAND_ID
+    }
+
+    fn place(&mut self, position: usize, placement: TargetPlacement) -> Result<(), DriverError> {
+        let scene = match placement {
+            TargetPlacement::Reference => Ok(self.holder.reference()),
+            TargetPlacement::HandHeld => self.holder.hand_held(position, false),
+            TargetPlacement::InProjectorView => self.holder.hand_held(position, true),
+        }
+        .map_err(|e| DriverError::InvalidSetting {
+            device: HAND_ID.to_string(),
+            reason: e.to_string(),
+        })?;
+        // `hand_held` found the position, and the reference needs none.
+        let prefetch = match (placement, scene.rig.positions.get(position)) {
+            (TargetPlacement::InProjectorView, Some(at)) => {
+                let k = &at.projector.intrinsics;
+                GrayCode::sequence(k.width, k.height)
+                    .into_iter()
+                    .map(ProjectorPattern::GrayCode)
+                    .collect()
+            }
+            _ => Vec::new(),
+        };
+        let mut stage = lock(&self.stage);
+        stage.prefetch = prefetch;
+        stage.target = Some(Arc::new(scene));
+        stage.placement += 1;
+        Ok(())
+    }
+
+    fn remove(&mut self) {
+        let mut stage = lock(&self.stage);
+        if stage.target.take().is_some() {
+            stage.placement += 1;
+            stage.prefetch.clear();
+        }
     }
 }
 

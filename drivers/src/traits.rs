@@ -10,7 +10,7 @@
 
 use crate::error::DriverError;
 use matscan_scan::raster::{RgbRaster, ScalarRaster};
-use matscan_scan::Pattern;
+use matscan_scan::{GrayAxis, Pattern};
 use std::num::NonZeroU32;
 use std::time::Duration;
 
@@ -127,6 +127,38 @@ pub struct Checker {
     pub high: Level,
 }
 
+/// One bit of the Gray code of the projector's column or row index, full
+/// white where the bit is set (clear, when `inverted`): the structured
+/// light that calibrates the projector (the contract's `gray-code`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct GrayCode {
+    pub axis: GrayAxis,
+    /// 0 is the finest stripes, one projector pixel wide.
+    pub bit: u32,
+    pub inverted: bool,
+}
+
+impl GrayCode {
+    /// Every Gray-code image of a `width` x `height` projector, columns
+    /// then rows, each bit followed by its inverse: what a projector
+    /// calibration photographs per board pose.
+    pub fn sequence(width: u32, height: u32) -> Vec<GrayCode> {
+        let size = matscan_scan::calib_bundle::ProjectorSize { width, height };
+        [GrayAxis::Columns, GrayAxis::Rows]
+            .into_iter()
+            .flat_map(|axis| {
+                (0..size.bits(axis)).flat_map(move |bit| {
+                    [false, true].map(|inverted| GrayCode {
+                        axis,
+                        bit,
+                        inverted,
+                    })
+                })
+            })
+            .collect()
+    }
+}
+
 /// What the projector shows.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub enum ProjectorPattern {
@@ -134,6 +166,7 @@ pub enum ProjectorPattern {
     Black,
     Uniform(Level),
     Checker(Checker),
+    GrayCode(GrayCode),
 }
 
 impl ProjectorPattern {
@@ -149,6 +182,11 @@ impl ProjectorPattern {
                 phase_px: [c.phase_px[0] as f64, c.phase_px[1] as f64],
                 low: c.low.get() as f64,
                 high: c.high.get() as f64,
+            },
+            ProjectorPattern::GrayCode(g) => Pattern::GrayCode {
+                axis: g.axis,
+                bit: g.bit,
+                inverted: g.inverted,
             },
         }
     }
@@ -176,9 +214,15 @@ impl ProjectorPattern {
                 low: level(low)?,
                 high: level(high)?,
             })),
-            // The drivers show scan patterns only; projector-calibration
-            // photos come from the simulated rig's board bundles.
-            Pattern::GrayCode { .. } => None,
+            Pattern::GrayCode {
+                axis,
+                bit,
+                inverted,
+            } => Some(ProjectorPattern::GrayCode(GrayCode {
+                axis,
+                bit,
+                inverted,
+            })),
         }
     }
 
@@ -187,7 +231,9 @@ impl ProjectorPattern {
         match self {
             ProjectorPattern::Black => 0.0,
             ProjectorPattern::Uniform(l) => l.get(),
-            ProjectorPattern::Checker(_) => self.to_pattern().value_at(u as i64, v as i64) as f32,
+            ProjectorPattern::Checker(_) | ProjectorPattern::GrayCode(_) => {
+                self.to_pattern().value_at(u as i64, v as i64) as f32
+            }
         }
     }
 
@@ -332,6 +378,31 @@ pub trait Positioner {
     /// Moves to the next position (wrapping after the last) and returns its
     /// index once the object has stopped.
     fn advance(&mut self) -> Result<usize, DriverError>;
+}
+
+/// Where a calibration target goes for the next photos.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TargetPlacement {
+    /// The reference placement, the same at every position: where the
+    /// object stands, on its easel. It ties each position's camera to the
+    /// world frame.
+    Reference,
+    /// Anywhere the camera sees it whole, tilted differently each time.
+    HandHeld,
+    /// Where both the camera and the projector see it whole.
+    InProjectorView,
+}
+
+/// Places a calibration target in front of the camera without a person:
+/// the simulated rig's operator. A real rig has none; its operator reads
+/// the prompt, places the target and presses the footswitch.
+pub trait TargetHand {
+    fn id(&self) -> &str;
+    /// Puts the target at `placement` for the camera at rig position
+    /// `position`; it is still when this returns.
+    fn place(&mut self, position: usize, placement: TargetPlacement) -> Result<(), DriverError>;
+    /// Takes the target away: the object is in view again.
+    fn remove(&mut self);
 }
 
 /// What every live camera must do, for the device tests that run where a

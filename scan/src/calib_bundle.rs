@@ -234,7 +234,7 @@ impl CalibManifest {
             return Err(invalid("board.square", "expected a positive length"));
         }
         let reference_to_world = crate::camera::mat4_from_row_major(&raw.board.reference_to_world);
-        if !rigid(&reference_to_world) {
+        if !is_rigid(&reference_to_world) {
             return Err(invalid(
                 "board.reference_to_world",
                 "expected a rigid transform (rotation and translation, last row 0 0 0 1)",
@@ -366,7 +366,7 @@ impl CalibManifest {
 
 /// A finite transform whose upper 3x3 is a rotation and whose last row is
 /// `0 0 0 1`.
-fn rigid(m: &DMat4) -> bool {
+pub fn is_rigid(m: &DMat4) -> bool {
     let r = glam::DMat3::from_mat4(*m);
     let last = m.row(3);
     m.to_cols_array().iter().all(|v| v.is_finite())

@@ -181,11 +181,11 @@ pub fn reference_placement(board: &Chessboard) -> DMat4 {
     DMat4::from_rotation_translation(DQuat::from_mat3(&rotation), -(rotation * centre))
 }
 
-/// A random board pose in the camera frame of `camera_to_world` that keeps
-/// the whole print in view (and in `projector`'s image, when given),
-/// tilted 10 to 40 degrees and turned in plane up to 15; `None` when no
-/// pose in 500 tries fits.
-fn random_pose(
+/// A random board pose, as a person holds a board for calibration, in
+/// front of the camera at `camera_to_world`: the whole print in view (and
+/// in `projector`'s image, when given), tilted 10 to 40 degrees and turned
+/// in plane up to 15; `None` when no pose in 500 tries fits.
+pub fn hand_held_pose(
     rng: &mut Pcg64,
     board: &Chessboard,
     rig: &Rig,
@@ -258,6 +258,78 @@ fn random_pose(
     None
 }
 
+/// A person holding a printed board in front of a simulated rig: the
+/// board sized for the rig ([`board_for`]), at its reference placement or
+/// wherever the next hand-held photo wants it.
+#[derive(Debug, Clone)]
+pub struct BoardHolder {
+    board: Chessboard,
+    rig: Rig,
+    rng: Pcg64,
+}
+
+impl BoardHolder {
+    /// A board of `inner_corners` for `rig`; `seed` picks the poses.
+    pub fn new(rig: &Rig, inner_corners: (u32, u32), seed: u64) -> BoardHolder {
+        BoardHolder {
+            board: board_for(rig, inner_corners),
+            rig: rig.clone(),
+            rng: Pcg64::seed_from_u64(seed),
+        }
+    }
+
+    pub fn board(&self) -> &Chessboard {
+        &self.board
+    }
+
+    /// The board's reference placement, board to world.
+    pub fn reference_to_world(&self) -> DMat4 {
+        reference_placement(&self.board)
+    }
+
+    /// The scene with the board at its reference placement.
+    pub fn reference(&self) -> Scene {
+        board_scene(&self.board, self.reference_to_world(), &self.rig)
+    }
+
+    /// The scene with the board held at a fresh pose before the camera of
+    /// rig position `position`, also lit whole by that position's
+    /// projector when `in_projector_view`.
+    pub fn hand_held(
+        &mut self,
+        position: usize,
+        in_projector_view: bool,
+    ) -> Result<Scene, SimError> {
+        let at = self.rig.positions.get(position).ok_or_else(|| {
+            SimError::Options(format!(
+                "rig position {position} does not exist ({} positions)",
+                self.rig.positions.len()
+            ))
+        })?;
+        let projector = in_projector_view
+            .then(|| PinholeCamera::new(at.projector.intrinsics, at.projector.projector_to_world));
+        let pose = hand_held_pose(
+            &mut self.rng,
+            &self.board,
+            &self.rig,
+            at.camera_to_world,
+            projector.as_ref(),
+        )
+        .ok_or_else(|| {
+            SimError::Options(format!(
+                "no board pose fits the {} view at position {}",
+                if in_projector_view {
+                    "camera's and the projector's"
+                } else {
+                    "camera's"
+                },
+                at.name
+            ))
+        })?;
+        Ok(board_scene(&self.board, pose, &self.rig))
+    }
+}
+
 /// Renders the board at every shot of every position of a random rig and
 /// writes the bundle at `out_dir` (which must not exist), with the true rig
 /// beside it as `truth-rig.toml`. Returns the manifest written.
@@ -301,7 +373,7 @@ pub fn write_board_bundle(
             let placement = if s == 0 {
                 reference
             } else {
-                random_pose(&mut rng, &board, &rig, position.camera_to_world, None).ok_or_else(
+                hand_held_pose(&mut rng, &board, &rig, position.camera_to_world, None).ok_or_else(
                     || {
                         SimError::Options(format!(
                             "no board pose fits the view at position {}",
@@ -383,7 +455,7 @@ fn projector_shot(
         position.projector.intrinsics,
         position.projector.projector_to_world,
     );
-    let placement = random_pose(rng, board, rig, position.camera_to_world, Some(&projector))
+    let placement = hand_held_pose(rng, board, rig, position.camera_to_world, Some(&projector))
         .ok_or_else(|| {
             SimError::Options(format!(
                 "no board pose fits both the camera's and the projector's view at {}",

@@ -36,6 +36,12 @@ pub enum CalibAction {
         #[arg(long)]
         json: bool,
     },
+    /// Photograph a calibration target through the running daemon: the
+    /// operator is prompted for each board pose and presses the footswitch
+    /// (the simulated rig's operator places the board itself). Prints the
+    /// calibration bundle for `matscan calib rig`. Exit codes as
+    /// `capture-now`.
+    Capture(CaptureArgs),
     /// Calibrate the rig's camera from a calibration bundle (photos of a
     /// printed chessboard): intrinsics, distortion and the camera's pose at
     /// every position, written as a rig file with a report. Exits 2 when
@@ -54,6 +60,52 @@ pub enum CalibAction {
     },
 }
 
+/// What a calibration capture photographs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum CalibTarget {
+    /// A printed chessboard: the cameras, and the projector by Gray codes.
+    Board,
+}
+
+#[derive(Debug, Args)]
+pub struct CaptureArgs {
+    /// What to photograph.
+    #[arg(long, value_enum)]
+    pub target: CalibTarget,
+    /// Board poses per position, the reference placement included
+    /// (default: the daemon's `[calibration] shots`).
+    #[arg(long)]
+    pub shots: Option<usize>,
+    /// Gray-code poses for the projector, 0 for none (default: the
+    /// daemon's `[calibration] projector_shots`).
+    #[arg(long)]
+    pub projector_shots: Option<usize>,
+    /// The daemon's control socket.
+    #[arg(long, default_value = matscan_daemon::service::config::DEFAULT_SOCKET)]
+    pub socket: PathBuf,
+    /// Print one JSON object (`bundle` and `summary`).
+    #[arg(long)]
+    pub json: bool,
+}
+
+fn run_capture(a: &CaptureArgs) -> Result<()> {
+    let target = match a.target {
+        CalibTarget::Board => "board",
+    };
+    let code =
+        matscan_daemon::client::calib_capture(&matscan_daemon::client::CalibCaptureOptions {
+            socket: a.socket.clone(),
+            target: target.to_string(),
+            shots: a.shots,
+            projector_shots: a.projector_shots,
+            json: a.json,
+        });
+    match code {
+        0 => Ok(()),
+        code => std::process::exit(i32::from(code)),
+    }
+}
+
 /// Runs `matscan calib`: exit code 2 when a check fails.
 pub fn run(a: CalibArgs) -> Result<()> {
     match (a.action, a.scan) {
@@ -64,6 +116,7 @@ pub fn run(a: CalibArgs) -> Result<()> {
                 std::process::exit(2)
             }
         }
+        (Some(CalibAction::Capture(c)), _) => run_capture(&c),
         (Some(CalibAction::Rig(r)), _) => super::rig_calib::run_rig(r),
         (Some(CalibAction::Board(b)), _) => super::rig_calib::run_board(b),
         (

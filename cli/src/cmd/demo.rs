@@ -132,6 +132,7 @@ fn config(a: &DemoArgs) -> Result<Config> {
         profiles,
         default_profile: FULL_PROFILE.to_string(),
         capture: CaptureSettings::default(),
+        calibration: Default::default(),
         estimate: EstimateSettings {
             enabled: true,
             weights: a.weights.clone(),

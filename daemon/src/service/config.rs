@@ -5,6 +5,7 @@
 //!
 //! Boundaries: reads text; opens no device and no socket.
 
+use super::sequencer::{BoardPlan, CalibrationTarget};
 use matscan_drivers::projector::kms::{Gamma, ModeRequest};
 use matscan_drivers::usb::UsbId;
 use matscan_scan::Param;
@@ -59,6 +60,33 @@ pub struct Config {
     pub default_profile: String,
     pub capture: CaptureSettings,
     pub estimate: EstimateSettings,
+    pub calibration: CalibrationSettings,
+}
+
+/// `[calibration]`: what a calibration capture (`matscan calib capture`)
+/// photographs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CalibrationSettings {
+    /// The printed board (`board`, `square`, `reference_to_world`); `None`
+    /// when not set. The simulated rig's operator holds its own board.
+    pub target: Option<CalibrationTarget>,
+    /// Board poses per position, the reference placement included.
+    pub shots: usize,
+    /// Gray-code poses for the projector (0 on a rig without one).
+    pub projector_shots: usize,
+    /// Positions to photograph when the rig has no calibration file yet.
+    pub positions: usize,
+}
+
+impl Default for CalibrationSettings {
+    fn default() -> Self {
+        CalibrationSettings {
+            target: None,
+            shots: 8,
+            projector_shots: 6,
+            positions: 1,
+        }
+    }
 }
 
 /// What the worker does with a published scan after checking it.
@@ -361,6 +389,19 @@ struct RawConfig {
     estimate: RawEstimate,
     simulated: Option<RawSimulated>,
     hardware: Option<RawHardware>,
+    #[serde(default)]
+    calibration: RawCalibration,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawCalibration {
+    board: Option<[u32; 2]>,
+    square: Option<f64>,
+    reference_to_world: Option<[f64; 16]>,
+    shots: Option<usize>,
+    projector_shots: Option<usize>,
+    positions: Option<usize>,
 }
 
 #[derive(Debug, Default, Deserialize)]
@@ -561,9 +602,11 @@ impl Config {
                 ));
             }
         }
+        let calibration = calibration(raw.calibration, &invalid)?;
         Ok(Config {
             rig,
             estimate,
+            calibration,
             socket: raw.socket.unwrap_or_else(|| PathBuf::from(DEFAULT_SOCKET)),
             socket_group: match raw.socket_group {
                 Some(g) if g.trim().is_empty() || g.contains('\0') => {
@@ -582,6 +625,97 @@ impl Config {
             },
         })
     }
+}
+
+fn calibration(
+    raw: RawCalibration,
+    invalid: &dyn Fn(&str, String) -> ConfigError,
+) -> Result<CalibrationSettings, ConfigError> {
+    let defaults = CalibrationSettings::default();
+    let target = match (raw.board, raw.square) {
+        (None, None) => {
+            if raw.reference_to_world.is_some() {
+                return Err(invalid(
+                    "calibration.reference_to_world",
+                    "only meaningful with calibration.board and calibration.square".into(),
+                ));
+            }
+            None
+        }
+        (Some([cols, rows]), Some(square)) => {
+            if cols < 3 || rows < 3 || cols == rows {
+                return Err(invalid(
+                    "calibration.board",
+                    format!(
+                        "[{cols}, {rows}]: expected the board's inner corners, two different \
+                         counts of at least 3 (columns, rows), so its orientation can be told"
+                    ),
+                ));
+            }
+            if !(square.is_finite() && square > 0.0 && square < 1.0) {
+                return Err(invalid(
+                    "calibration.square",
+                    format!("{square}: expected the edge of one square in metres (0 to 1)"),
+                ));
+            }
+            let reference_to_world = match raw.reference_to_world {
+                None => glam::DMat4::IDENTITY,
+                Some(m) => {
+                    let m = matscan_scan::camera::mat4_from_row_major(&m);
+                    if !matscan_scan::calib_bundle::is_rigid(&m) {
+                        return Err(invalid(
+                            "calibration.reference_to_world",
+                            "expected a rigid transform, row-major (rotation and translation, \
+                             last row 0 0 0 1)"
+                                .into(),
+                        ));
+                    }
+                    m
+                }
+            };
+            Some(CalibrationTarget {
+                board: matscan_scan::calib_bundle::Chessboard { cols, rows, square },
+                reference_to_world,
+            })
+        }
+        (Some(_), None) => {
+            return Err(invalid(
+                "calibration.square",
+                "missing: expected the edge of one printed square in metres".into(),
+            ))
+        }
+        (None, Some(_)) => {
+            return Err(invalid(
+                "calibration.board",
+                "missing: expected the board's inner corners, [columns, rows]".into(),
+            ))
+        }
+    };
+    let shots = raw.shots.unwrap_or(defaults.shots);
+    let projector_shots = raw.projector_shots.unwrap_or(defaults.projector_shots);
+    if BoardPlan::new(shots, projector_shots).is_none() {
+        return Err(invalid(
+            "calibration.shots",
+            format!(
+                "shots = {shots}, projector_shots = {projector_shots}: expected 1 to {max} board \
+                 poses per position and at most {max} for the projector",
+                max = BoardPlan::MAX_SHOTS
+            ),
+        ));
+    }
+    let positions = raw.positions.unwrap_or(defaults.positions);
+    if positions == 0 {
+        return Err(invalid(
+            "calibration.positions",
+            "expected at least 1 rig position".into(),
+        ));
+    }
+    Ok(CalibrationSettings {
+        target,
+        shots,
+        projector_shots,
+        positions,
+    })
 }
 
 fn hardware(
@@ -961,6 +1095,27 @@ mod tests {
             (
                 "rig = \"simulated\"\n[estimate]\nweights = \"/nonexistent/w\"",
                 "`estimate.weights`: /nonexistent/w: expected a folder",
+            ),
+            (
+                "rig = \"simulated\"\n[calibration]\nboard = [9, 6]",
+                "`calibration.square`: missing",
+            ),
+            (
+                "rig = \"simulated\"\n[calibration]\nboard = [6, 6]\nsquare = 0.03",
+                "`calibration.board`: [6, 6]: expected the board's inner corners",
+            ),
+            (
+                "rig = \"simulated\"\n[calibration]\nboard = [9, 6]\nsquare = 30",
+                "`calibration.square`: 30: expected the edge of one square in metres",
+            ),
+            (
+                "rig = \"simulated\"\n[calibration]\nboard = [9, 6]\nsquare = 0.03\n\
+                 reference_to_world = [2,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1]",
+                "`calibration.reference_to_world`: expected a rigid transform",
+            ),
+            (
+                "rig = \"simulated\"\n[calibration]\nshots = 0",
+                "`calibration.shots`: shots = 0",
             ),
         ];
         for (text, want) in cases {

@@ -62,6 +62,13 @@ pub enum HardwareError {
 /// The rig's geometry: the calibration file's cameras and lights with the
 /// mesh at `config.mesh`.
 pub fn load_geometry(config: &HardwareRigConfig) -> Result<RigGeometry, HardwareError> {
+    let mut geometry = load_geometry_without_mesh(config)?;
+    geometry.mesh = read_mesh(&config.mesh)?;
+    Ok(geometry)
+}
+
+/// The calibration file's cameras and lights, validated, with no mesh.
+fn load_geometry_without_mesh(config: &HardwareRigConfig) -> Result<RigGeometry, HardwareError> {
     let path = &config.calibration;
     let (manifest, _warnings) =
         Manifest::read_rig(path).map_err(|source| HardwareError::Calibration {
@@ -113,10 +120,9 @@ pub fn load_geometry(config: &HardwareRigConfig) -> Result<RigGeometry, Hardware
             }
         }
     }
-    let mesh = read_mesh(&config.mesh)?;
     Ok(RigGeometry {
         name: manifest.name.clone(),
-        mesh,
+        mesh: Mesh::default(),
         intrinsics: manifest.camera,
         positions: manifest
             .positions
@@ -170,6 +176,71 @@ pub fn open(config: &HardwareRigConfig) -> Result<RigDevices, HardwareError> {
     assemble(config, geometry, devices)
 }
 
+/// Opens every device of the hardware rig for a calibration capture. The
+/// geometry is the calibration file's when it exists (its positions and
+/// exposure); a rig calibrated for the first time has none, and is
+/// photographed at `positions` positions named `p0`, `p1`, ... The object's
+/// mesh is not read: a calibration photographs a board.
+pub fn open_for_calibration(
+    config: &HardwareRigConfig,
+    positions: usize,
+) -> Result<RigDevices, HardwareError> {
+    let geometry = if config.calibration.exists() {
+        load_geometry_without_mesh(config)?
+    } else {
+        tracing::info!(
+            "{} does not exist yet: photographing the board at {positions} position(s)",
+            config.calibration.display()
+        );
+        uncalibrated_geometry(config, positions)
+    };
+    let camera = open_camera(&config.camera, config)?;
+    let projector = match &config.projector {
+        None => None,
+        Some(source) => Some(open_projector(source)?),
+    };
+    let trigger = open_footswitch(&config.footswitch, &config.footswitch_keys)?;
+    let mut rig = assemble(
+        config,
+        geometry,
+        Devices {
+            camera,
+            projector,
+            trigger,
+        },
+    )?;
+    rig.mesh_source = None;
+    Ok(rig)
+}
+
+/// A rig without calibration: `positions` positions at the configured
+/// exposure, nothing known of their poses or lights.
+fn uncalibrated_geometry(config: &HardwareRigConfig, positions: usize) -> RigGeometry {
+    let f = f64::from(config.width.max(config.height));
+    RigGeometry {
+        name: "uncalibrated rig".into(),
+        mesh: Mesh::default(),
+        intrinsics: matscan_scan::Intrinsics {
+            width: config.width,
+            height: config.height,
+            fx: f,
+            fy: f,
+            cx: f64::from(config.width) / 2.0,
+            cy: f64::from(config.height) / 2.0,
+            distortion: [0.0; 5],
+        },
+        positions: (0..positions.max(1))
+            .map(|i| PositionPose {
+                name: format!("p{i}"),
+                camera_to_world: glam::DMat4::IDENTITY,
+                lights: Vec::new(),
+                exposure_s: config.exposure_s,
+            })
+            .collect(),
+        checker_periods: config.checker_periods,
+    }
+}
+
 /// The hardware rig with `devices` standing in for the configured camera,
 /// projector and footswitch; the geometry files and the light controller's
 /// serial port are the configured ones. The end-to-end test drives the
@@ -198,6 +269,8 @@ fn assemble(
         geometry,
         truth: None,
         mesh_source: Some(config.mesh.clone()),
+        calibration_target: None,
+        hand: None,
     })
 }
 
@@ -445,6 +518,8 @@ mod tests {
             geometry,
             truth: None,
             mesh_source: None,
+            calibration_target: None,
+            hand: None,
         }
     }
 

@@ -6,7 +6,8 @@
 //! Boundaries: bookkeeping on [`Shared`]; no I/O.
 
 use super::config::{BusyPolicy, Config};
-use super::state::Shared;
+use super::sequencer::BoardPlan;
+use super::state::{Shared, State};
 use serde_json::{json, Value};
 
 /// Error codes of refused requests.
@@ -15,6 +16,7 @@ pub mod code {
     pub const BUSY: &str = "busy";
     pub const UNKNOWN_PROFILE: &str = "unknown_profile";
     pub const UNKNOWN_JOB: &str = "unknown_job";
+    pub const UNKNOWN_TARGET: &str = "unknown_target";
     pub const STOPPING: &str = "stopping";
 }
 
@@ -61,10 +63,59 @@ pub fn request_capture(
             format!("no profile `{profile}` (defined: {})", known.join(", ")),
         );
     }
+    admit(shared, config, source, |s| {
+        s.enqueue(&profile, source.name())
+    })
+    .unwrap_or_else(|refused| refused)
+}
+
+/// Queues a calibration capture of `target` (`board`, the only target this
+/// version photographs) with `shots` board poses per position and
+/// `projector_shots` Gray-code poses (the configuration's counts where
+/// `None`), or refuses it like any capture.
+pub fn request_calibration(
+    shared: &Shared,
+    config: &Config,
+    target: &str,
+    shots: Option<usize>,
+    projector_shots: Option<usize>,
+) -> Value {
+    if target != "board" {
+        return refusal(
+            code::UNKNOWN_TARGET,
+            format!("no calibration target `{target}`: expected \"board\" (a printed chessboard)"),
+        );
+    }
+    let shots = shots.unwrap_or(config.calibration.shots);
+    let projector_shots = projector_shots.unwrap_or(config.calibration.projector_shots);
+    let Some(plan) = BoardPlan::new(shots, projector_shots) else {
+        return refusal(
+            code::BAD_REQUEST,
+            format!(
+                "shots = {shots}, projector_shots = {projector_shots}: expected 1 to {max} board \
+                 poses per position and at most {max} for the projector",
+                max = BoardPlan::MAX_SHOTS
+            ),
+        );
+    };
+    admit(shared, config, Source::Socket, |s| {
+        s.enqueue_calibration(plan, Source::Socket.name())
+    })
+    .unwrap_or_else(|refused| refused)
+}
+
+/// Queues a job with `enqueue` unless the daemon is stopping or the busy
+/// policy refuses it; the reply either way.
+fn admit(
+    shared: &Shared,
+    config: &Config,
+    source: Source,
+    enqueue: impl FnOnce(&mut State) -> u64,
+) -> Result<Value, Value> {
     let from = source.name();
     shared.update(|s| {
         if s.stopping {
-            return refusal(code::STOPPING, "the daemon is stopping".into());
+            return Err(refusal(code::STOPPING, "the daemon is stopping".into()));
         }
         let busy =
             s.current.is_some() || !s.queue.is_empty() || source == Source::FootswitchDuringCapture;
@@ -76,20 +127,25 @@ pub fn request_capture(
                     |id| format!("a capture is running (job {id})"),
                 );
                 tracing::info!("capture request ({from}) refused: {what}");
-                return refusal(code::BUSY, format!("{what} and busy = \"refuse\""));
+                return Err(refusal(code::BUSY, format!("{what} and busy = \"refuse\"")));
             }
             BusyPolicy::Queue { limit } if s.queue.len() >= limit => {
                 tracing::info!("capture request ({from}) refused: the queue is full");
-                return refusal(
+                return Err(refusal(
                     code::BUSY,
                     format!("the queue is full ({limit} captures waiting)"),
-                );
+                ));
             }
             _ => {}
         }
         let ahead = s.queue.len() + usize::from(s.current.is_some());
-        let id = s.enqueue(&profile, from);
-        tracing::info!("job {id}: capture queued by the {from} (profile {profile}, {ahead} ahead)");
-        json!({"ok": true, "job": id, "profile": profile, "ahead": ahead})
+        let id = enqueue(s);
+        let profile = s
+            .jobs
+            .get(&id)
+            .map(|j| j.profile.clone())
+            .unwrap_or_default();
+        tracing::info!("job {id}: {profile} capture queued by the {from} ({ahead} ahead)");
+        Ok(json!({"ok": true, "job": id, "profile": profile, "ahead": ahead}))
     })
 }

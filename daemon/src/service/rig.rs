@@ -7,9 +7,9 @@
 //!
 //! Boundaries: builds a [`RigDevices`]; takes no photo.
 
-use super::config::{RigChoice, SimulatedRigConfig};
+use super::config::{CalibrationSettings, RigChoice, SimulatedRigConfig};
 use super::hardware::HardwareError;
-use super::sequencer::{PositionPose, RigDevices, RigGeometry, TruthSource};
+use super::sequencer::{CalibrationTarget, PositionPose, RigDevices, RigGeometry, TruthSource};
 use matscan_drivers::lights::BoardFaults;
 use matscan_drivers::sim_rig::{SimConfig, SimFaults, SimulatedRig};
 use matscan_drivers::DriverError;
@@ -25,6 +25,19 @@ pub fn open(choice: &RigChoice) -> Result<RigDevices, HardwareError> {
     match choice {
         RigChoice::Simulated(c) => open_simulated(c),
         RigChoice::Hardware(c) => super::hardware::open(c),
+    }
+}
+
+/// Opens the rig `choice` names for a calibration capture: a hardware rig
+/// whose calibration file does not exist yet is photographed at the
+/// `[calibration]` positions.
+pub fn open_for_calibration(
+    choice: &RigChoice,
+    calibration: &CalibrationSettings,
+) -> Result<RigDevices, HardwareError> {
+    match choice {
+        RigChoice::Simulated(c) => open_simulated(c),
+        RigChoice::Hardware(c) => super::hardware::open_for_calibration(c, calibration.positions),
     }
 }
 
@@ -89,7 +102,13 @@ fn open_simulated(c: &SimulatedRigConfig) -> Result<RigDevices, HardwareError> {
         })),
         None => None,
     };
+    let calibration_target = Some(CalibrationTarget {
+        board: *rig.hand.board(),
+        reference_to_world: rig.hand.reference_to_world(),
+    });
     Ok(RigDevices {
+        calibration_target,
+        hand: Some(Box::new(rig.hand)),
         camera: Box::new(rig.camera),
         lights: Box::new(rig.lights),
         projector: Some(Box::new(rig.projector)),
@@ -110,6 +129,10 @@ impl TruthSource for SceneTruth {
         let renderer = matscan_sim::render::Renderer::new(&self.0).map_err(|e| e.to_string())?;
         let maps = renderer.render_truth(index).map_err(|e| e.to_string())?;
         matscan_sim::render::write_truth(writer, position, &maps).map_err(|e| e.to_string())
+    }
+
+    fn rig(&self) -> Option<matscan_scan::Manifest> {
+        Some(matscan_sim::calib_target::truth_rig(&self.0.rig))
     }
 }
 

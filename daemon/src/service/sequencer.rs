@@ -16,7 +16,7 @@
 use super::plan::{checker_of, Capabilities, CapturePlan, Step};
 use matscan_drivers::{
     monotonic_now, Camera, CameraSettings, DriverError, LightController, LightId, Positioner,
-    Projector, ProjectorPattern, Trigger,
+    Projector, ProjectorPattern, TargetHand, Trigger,
 };
 use matscan_scan::bundle::BundleWriter;
 use matscan_scan::raster::RgbRaster;
@@ -65,6 +65,11 @@ pub trait TruthSource {
     /// Writes position `index`'s truth maps (named `position`) into the
     /// scan being written.
     fn write(&self, writer: &BundleWriter, index: usize, position: &str) -> Result<(), String>;
+    /// The rig as it really is (a rig calibration file), written beside a
+    /// calibration's photos so that the calibration can be checked.
+    fn rig(&self) -> Option<Manifest> {
+        None
+    }
 }
 
 /// The rig's devices and what is known about them.
@@ -85,6 +90,12 @@ pub struct RigDevices {
     /// scanner's export path on a real rig); `None`: the geometry's mesh is
     /// fixed (the simulated rig's scene).
     pub mesh_source: Option<PathBuf>,
+    /// The printed board calibrations photograph; `None`: not configured,
+    /// and a calibration capture says so.
+    pub calibration_target: Option<CalibrationTarget>,
+    /// Places the board without a person (the simulated rig); `None`: the
+    /// operator is prompted and presses the footswitch.
+    pub hand: Option<Box<dyn TargetHand>>,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -109,10 +120,11 @@ pub enum CaptureError {
         difference: f32,
         threshold: f32,
     },
-    #[error("{device}: no press within {waited:?} to continue at position {position}")]
+    #[error("{device}: no press within {waited:?} {waiting_for}")]
     OperatorTimeout {
         device: String,
-        position: String,
+        /// What the press was to say, as "to continue at position p1".
+        waiting_for: String,
         waited: Duration,
     },
     #[error("the rig has {positions} positions but neither a positioner nor a trigger to move between them")]
@@ -121,6 +133,15 @@ pub enum CaptureError {
     BadExposure { position: String, exposure_s: f32 },
     #[error("the capture was cancelled (the daemon is stopping)")]
     Cancelled,
+    #[error("the rig has no footswitch to say when the operator is done: cannot {task}")]
+    NoTrigger { task: String },
+    #[error(
+        "no calibration board is configured: set [calibration] board (inner corners, columns \
+         and rows) and square (its edge, metres) in the daemon's configuration"
+    )]
+    NoCalibrationTarget,
+    #[error("{device}: cannot calibrate the projector: {reason}")]
+    CannotShowGrayCode { device: String, reason: String },
 }
 
 /// Progress of one capture, reported after each photo.
@@ -320,11 +341,7 @@ impl RigDevices {
     }
 
     /// Moves to the next position: turns the positioner, or waits for the
-    /// operator's press. Presses already waiting when the wait begins were
-    /// made while photos were being taken, before the operator could have
-    /// moved the object: they do not count (else the next position's photos
-    /// would catch the object in motion) and are returned as a count. An
-    /// unplugged footswitch is waited for until the operator timeout.
+    /// operator's press ([`RigDevices::wait_for_press`]).
     fn next_position(
         &mut self,
         name: &str,
@@ -336,19 +353,45 @@ impl RigDevices {
             self.camera.scene_changed(monotonic_now());
             return Ok(0);
         }
-        let Some(trigger) = self.trigger.as_mut() else {
+        if self.trigger.is_none() {
             return Err(CaptureError::CannotMove {
                 positions: self.geometry.positions.len(),
+            });
+        }
+        self.wait_for_press(
+            &format!("move the object to {name}"),
+            &format!("to continue at position {name}"),
+            settings,
+            stop,
+        )
+    }
+
+    /// Waits for the operator to do `task` and press. Presses already
+    /// waiting when the wait begins were made while photos were being
+    /// taken, before the operator could have done it: they do not count
+    /// (else the next photos would catch the rig in motion) and are
+    /// returned as a count. An unplugged footswitch is waited for until the
+    /// operator timeout; `waiting_for` ends that error's message.
+    fn wait_for_press(
+        &mut self,
+        task: &str,
+        waiting_for: &str,
+        settings: &RunSettings,
+        stop: &dyn Fn() -> bool,
+    ) -> Result<usize, CaptureError> {
+        let Some(trigger) = self.trigger.as_mut() else {
+            return Err(CaptureError::NoTrigger {
+                task: task.to_string(),
             });
         };
         let early = drain_presses(trigger.as_mut());
         if early > 0 {
             tracing::info!(
-                "{}: {early} press(es) during the photos ignored: press again once the object is at {name}",
+                "{}: {early} press(es) during the photos ignored: {task}, then press again",
                 trigger.id()
             );
         }
-        tracing::info!("waiting for the operator to move the object to {name} and press");
+        tracing::info!("waiting for the operator to {task} and press");
         let deadline = Instant::now() + settings.operator_timeout;
         let mut unplugged: Option<DriverError> = None;
         // Short waits so that a stop request is heard while the operator
@@ -367,7 +410,7 @@ impl RigDevices {
                 }
                 return Err(CaptureError::OperatorTimeout {
                     device: trigger.id().to_string(),
-                    position: name.to_string(),
+                    waiting_for: waiting_for.to_string(),
                     waited: settings.operator_timeout,
                 });
             }
@@ -607,6 +650,9 @@ pub fn mean_abs_difference(a: &RgbRaster, b: &RgbRaster) -> f32 {
         0.0
     }
 }
+
+pub mod calibration;
+pub use calibration::{BoardPlan, CalibrationOutcome, CalibrationTarget};
 
 #[cfg(test)]
 mod tests;

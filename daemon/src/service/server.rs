@@ -10,7 +10,7 @@ use super::config::Config;
 use super::notify::Notifier;
 use super::plan::plan;
 use super::request::{request_capture, Source};
-use super::sequencer::{CaptureError, Progress, RigDevices, RunSettings};
+use super::sequencer::{BoardPlan, CaptureError, Progress, RigDevices, RunSettings};
 use super::state::{JobStage, Shared};
 use super::worker::{EstimateOutcome, Job, Processed, Worker};
 use matscan_drivers::Press;
@@ -366,7 +366,29 @@ fn finish_job(
 ) {
     shared.update(|s| {
         s.current = None;
+        let calibration = s.jobs.get(&id).is_some_and(|j| j.calibration.is_some());
         match result {
+            Ok((bundle, summary, _)) if calibration => {
+                tracing::info!(
+                    "job {id}: calibration photos published at {}",
+                    bundle.display()
+                );
+                s.event(
+                    id,
+                    json!({"event": "done", "job": id, "bundle": bundle, "summary": summary}),
+                );
+                s.event(id, json!({"event": "finished", "job": id}));
+                s.set_stage(
+                    id,
+                    JobStage::Captured {
+                        scan: bundle,
+                        summary,
+                    },
+                );
+                if let Some(j) = s.jobs.get_mut(&id) {
+                    j.processed = true;
+                }
+            }
             Ok((scan, summary, _)) => {
                 tracing::info!("job {id}: scan published at {}", scan.display());
                 s.event(
@@ -414,12 +436,15 @@ fn run_job(
     rig: &mut Option<RigDevices>,
     id: u64,
 ) -> Result<(PathBuf, serde_json::Value, usize), String> {
-    let profile_name = shared
+    let (profile_name, calibration) = shared
         .lock()
         .jobs
         .get(&id)
-        .map(|j| j.profile.clone())
-        .unwrap_or_else(|| config.default_profile.clone());
+        .map(|j| (j.profile.clone(), j.calibration))
+        .unwrap_or_else(|| (config.default_profile.clone(), None));
+    if let Some(plan) = calibration {
+        return run_calibration(config, shared, rig, id, plan);
+    }
     let profile = config
         .profiles
         .get(&profile_name)
@@ -500,6 +525,93 @@ fn run_job(
             Err(e.to_string())
         }
     }
+}
+
+/// Carries out calibration job `id` on a rig opened for it (a hardware rig
+/// needs no calibration file yet), then closes the rig so that the next
+/// scan reads the calibration this one leads to.
+fn run_calibration(
+    config: &Config,
+    shared: &Shared,
+    rig: &mut Option<RigDevices>,
+    id: u64,
+    plan: BoardPlan,
+) -> Result<(PathBuf, serde_json::Value, usize), String> {
+    *rig = None;
+    tracing::info!(
+        "opening the rig for a calibration: {}",
+        config.rig.describe()
+    );
+    let mut r = super::rig::open_for_calibration(&config.rig, &config.calibration)
+        .map_err(|e| format!("opening the rig: {e}"))?;
+    if r.calibration_target.is_none() {
+        r.calibration_target = config.calibration.target.clone();
+    }
+    let target = next_calibration_path(&config.scans).map_err(|e| e.to_string())?;
+    shared.update(|s| s.event(id, json!({"event": "started", "job": id, "bundle": target})));
+    tracing::info!(
+        "job {id}: photographing the calibration board into {}",
+        target.display()
+    );
+    let settings = RunSettings {
+        light_retries: config.capture.light_retries,
+        min_light_difference: config.capture.min_light_difference,
+        operator_timeout: config.capture.operator_timeout,
+    };
+    let mut prompt = |what: &str| {
+        tracing::info!("job {id}: {what}");
+        shared.update(|s| s.event(id, json!({"event": "prompt", "job": id, "what": what})))
+    };
+    let mut progress = |p: Progress| {
+        shared.update(|s| {
+            s.event(
+                id,
+                json!({"event": "progress", "job": id, "done": p.done, "total": p.total, "what": p.what}),
+            )
+        })
+    };
+    let outcome = r
+        .capture_calibration(
+            plan,
+            &target,
+            &settings,
+            &|| {
+                shared.beat();
+                shared.cancel.load(Ordering::SeqCst)
+            },
+            &mut prompt,
+            &mut progress,
+        )
+        .map_err(|e| e.to_string())?;
+    Ok((
+        outcome.bundle.clone(),
+        json!({
+            "target": "board",
+            "positions": outcome.positions,
+            "shots": outcome.shots,
+            "graycode_shots": outcome.graycode_shots,
+            "photos": outcome.photos,
+            "seconds": outcome.seconds,
+        }),
+        0,
+    ))
+}
+
+/// `scans/calib-NNNN`, one past the highest number there.
+pub fn next_calibration_path(scans: &Path) -> Result<PathBuf, ServerError> {
+    let mut highest = 0u64;
+    let entries = std::fs::read_dir(scans).map_err(io_err(scans, "listing the scans folder"))?;
+    for entry in entries.flatten() {
+        let n = entry
+            .file_name()
+            .to_str()
+            .and_then(|n| n.strip_prefix("calib-"))
+            .and_then(|n| n.parse::<u64>().ok());
+        if let Some(n) = n {
+            highest = highest.max(n);
+        }
+    }
+    Ok(scans.join(format!("calib-{:04}", highest + 1)))
 }
 
 fn toml_string(s: &str) -> String {

@@ -1,8 +1,10 @@
 //! The control socket's protocol (documented in `docs/daemon-protocol.md`):
 //! one JSON object per line each way. Requests: `{"cmd":"capture",
-//! "profile":P}` (profile optional), `{"cmd":"status"}`, `{"cmd":"watch",
-//! "job":N}`; `watch` streams the job's events until it has failed or the
-//! worker is done with its scan (`finished`). A connection may send several requests in turn.
+//! "profile":P}` (profile optional), `{"cmd":"calib_capture",
+//! "target":"board","shots":N,"projector_shots":M}` (counts optional),
+//! `{"cmd":"status"}`, `{"cmd":"watch","job":N}`; `watch` streams the job's
+//! events until it has failed or is done (a scan: the worker is done with
+//! it, `finished`). A connection may send several requests in turn.
 //!
 //! Boundaries: parses requests and answers them from the shared state;
 //! captures happen on the capture thread (`super::server`).
@@ -18,13 +20,22 @@ use std::time::Duration;
 #[derive(Debug, Deserialize)]
 #[serde(tag = "cmd", rename_all = "snake_case", deny_unknown_fields)]
 pub enum Request {
-    Capture { profile: Option<String> },
+    Capture {
+        profile: Option<String>,
+    },
+    CalibCapture {
+        target: String,
+        shots: Option<usize>,
+        projector_shots: Option<usize>,
+    },
     Status,
-    Watch { job: u64 },
+    Watch {
+        job: u64,
+    },
 }
 
 pub use super::request::code;
-use super::request::{refusal, request_capture, Source};
+use super::request::{refusal, request_calibration, request_capture, Source};
 
 /// Serves one connection until the peer closes it.
 pub fn serve_connection(stream: UnixStream, shared: &Shared, config: &Config) {
@@ -50,6 +61,14 @@ pub fn serve_connection(stream: UnixStream, shared: &Shared, config: &Config) {
             Ok(Request::Capture { profile }) => send(
                 &mut writer,
                 &request_capture(shared, config, profile, Source::Socket),
+            ),
+            Ok(Request::CalibCapture {
+                target,
+                shots,
+                projector_shots,
+            }) => send(
+                &mut writer,
+                &request_calibration(shared, config, &target, shots, projector_shots),
             ),
             Ok(Request::Watch { job }) => watch(&mut writer, shared, job),
         };

@@ -5,12 +5,16 @@
 //!
 //! Boundaries: bookkeeping only; no device, file or socket I/O.
 
+use super::sequencer::BoardPlan;
 use super::worker::{EstimateOutcome, Verdict};
 use serde_json::{json, Value};
 use std::collections::{BTreeMap, VecDeque};
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Condvar, Mutex, MutexGuard};
+
+/// The profile name of calibration captures, in events and `status`.
+pub const CALIBRATION_PROFILE: &str = "calibration";
 
 /// Finished jobs kept for `status` and late `watch` requests.
 const KEEP_FINISHED: usize = 32;
@@ -26,7 +30,11 @@ pub enum JobStage {
 #[derive(Debug, Clone)]
 pub struct JobRecord {
     pub id: u64,
+    /// The capture profile; `calibration` for a calibration capture.
     pub profile: String,
+    /// `Some` for a calibration capture (`matscan calib capture`): the
+    /// board poses to photograph. Its bundle goes to no estimator.
+    pub calibration: Option<BoardPlan>,
     /// Who asked for it: `socket` or `footswitch`.
     pub source: String,
     pub stage: JobStage,
@@ -86,6 +94,7 @@ impl State {
                 id,
                 profile: profile.to_string(),
                 source: source.to_string(),
+                calibration: None,
                 stage,
                 events: vec![first_event(id)],
                 check: None,
@@ -104,6 +113,25 @@ impl State {
             JobStage::Queued,
             |id| json!({"event": "queued", "job": id, "profile": profile, "source": source}),
         );
+        self.queue.push_back(id);
+        self.prune();
+        id
+    }
+
+    /// Records a new queued calibration capture of `plan`, asked for by
+    /// `source`, and returns its id.
+    pub fn enqueue_calibration(&mut self, plan: BoardPlan, source: &str) -> u64 {
+        let id = self.insert_job(CALIBRATION_PROFILE, source, JobStage::Queued, |id| {
+            json!({
+                "event": "queued",
+                "job": id,
+                "calibration": {"target": "board", "shots": plan.shots, "projector_shots": plan.projector_shots},
+                "source": source,
+            })
+        });
+        if let Some(job) = self.jobs.get_mut(&id) {
+            job.calibration = Some(plan);
+        }
         self.queue.push_back(id);
         self.prune();
         id
@@ -171,10 +199,26 @@ impl State {
             .filter_map(|id| self.jobs.get(id))
             .map(|j| json!({"job": j.id, "profile": j.profile, "source": j.source}))
             .collect();
+        let last_calibrations: Vec<Value> = self
+            .jobs
+            .values()
+            .rev()
+            .filter(|j| j.calibration.is_some())
+            .filter_map(|j| match &j.stage {
+                JobStage::Captured { scan, summary } => Some(json!({
+                    "job": j.id,
+                    "bundle": scan,
+                    "summary": summary,
+                })),
+                _ => None,
+            })
+            .take(10)
+            .collect();
         let last_scans: Vec<Value> = self
             .jobs
             .values()
             .rev()
+            .filter(|j| j.calibration.is_none())
             .filter_map(|j| match &j.stage {
                 JobStage::Captured { scan, summary } => Some(json!({
                     "job": j.id,
@@ -206,6 +250,7 @@ impl State {
             "current": current,
             "queue": queue,
             "last_scans": last_scans,
+            "last_calibrations": last_calibrations,
             "failed": failed,
             "last_error": self.last_error,
         })
@@ -216,7 +261,7 @@ impl State {
         let done = self
             .jobs
             .values()
-            .filter(|j| matches!(j.stage, JobStage::Captured { .. }))
+            .filter(|j| j.calibration.is_none() && matches!(j.stage, JobStage::Captured { .. }))
             .count();
         let now = match self.current.and_then(|id| self.jobs.get(&id)) {
             Some(j) => match j.events.iter().rev().find(|e| e["event"] == "progress") {

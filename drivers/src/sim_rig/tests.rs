@@ -260,3 +260,54 @@ fn footswitch_presses_arrive_and_silence_times_out() {
         Err(DriverError::Disconnected { .. })
     ));
 }
+
+#[test]
+fn the_operator_holds_a_board_in_the_objects_place_and_takes_it_away() {
+    let config = SimConfig {
+        width: 64,
+        height: 64,
+        ..config(SimFaults::default())
+    };
+    let mut rig = SimulatedRig::new(scene(), config).unwrap();
+    rig.lights.on(LightId::Flash0, Level::FULL).unwrap();
+    let object = rig.camera.capture().unwrap().rgb;
+    rig.hand.place(0, TargetPlacement::Reference).unwrap();
+    let board = rig.camera.capture().unwrap().rgb;
+    let changed = object
+        .data
+        .iter()
+        .zip(&board.data)
+        .filter(|(a, b)| (0..3).any(|c| (a[c] - b[c]).abs() > 1e-3))
+        .count();
+    assert!(
+        changed > object.data.len() / 10,
+        "the board replaces the object in {changed} of {} pixels",
+        object.data.len()
+    );
+    // A Gray-code pose: every stripe image renders in the placement's first
+    // pass, so showing them one by one renders nothing more.
+    rig.hand.place(0, TargetPlacement::InProjectorView).unwrap();
+    rig.camera.capture().unwrap();
+    let codes = GrayCode::sequence(1024, 768);
+    let cached = |rig: &SimulatedRig| rig.camera.cache.as_ref().unwrap().emitters.len();
+    let first_pass = cached(&rig);
+    assert_eq!(
+        first_pass,
+        rig.camera.lights_of(0).len() + codes.len(),
+        "every rig light and every stripe image"
+    );
+    for code in codes.iter().take(3) {
+        rig.projector
+            .show(ProjectorPattern::GrayCode(*code))
+            .unwrap();
+        rig.camera.capture().unwrap();
+    }
+    assert_eq!(cached(&rig), first_pass);
+    rig.projector.show(ProjectorPattern::Black).unwrap();
+    // Taken away, the object is photographed as before.
+    rig.hand.remove();
+    assert_eq!(rig.camera.capture().unwrap().rgb, object);
+    // A position the rig does not have is refused, naming the operator.
+    let err = rig.hand.place(7, TargetPlacement::HandHeld).unwrap_err();
+    assert!(err.to_string().contains(HAND_ID), "{err}");
+}

@@ -186,6 +186,8 @@ fn hand_turned_rig() -> (
         geometry,
         truth: None,
         mesh_source: None,
+        calibration_target: None,
+        hand: None,
     };
     (rig, sim_rig.positioner, button)
 }
@@ -242,7 +244,7 @@ fn a_press_made_before_the_wait_does_not_move_on_and_is_counted() {
         )
         .unwrap_err();
     assert!(
-        matches!(&err, CaptureError::OperatorTimeout { position, .. } if position == "p1"),
+        matches!(&err, CaptureError::OperatorTimeout { waiting_for, .. } if waiting_for.ends_with("position p1")),
         "{err}"
     );
     assert!(!dir.path().join("scan-0001").exists());
@@ -279,5 +281,107 @@ fn without_a_press_the_capture_times_out_naming_the_footswitch() {
             .starts_with("sim:footswitch: no press within"),
         "{err}"
     );
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+}
+
+/// Presses `button` every 50 ms until `run` returns: an operator who is
+/// always ready (presses during photos are ignored by the sequencer).
+fn with_ready_operator<T>(button: FootswitchButton, run: impl FnOnce() -> T) -> T {
+    use std::sync::atomic::{AtomicBool, Ordering};
+    use std::sync::Arc;
+    let finished = Arc::new(AtomicBool::new(false));
+    let presser = {
+        let finished = finished.clone();
+        std::thread::spawn(move || {
+            while !finished.load(Ordering::SeqCst) {
+                button.press();
+                std::thread::sleep(Duration::from_millis(50));
+            }
+        })
+    };
+    let out = run();
+    finished.store(true, Ordering::SeqCst);
+    presser.join().expect("the operator thread");
+    out
+}
+
+fn board_target() -> CalibrationTarget {
+    CalibrationTarget {
+        board: matscan_scan::calib_bundle::Chessboard {
+            cols: 9,
+            rows: 6,
+            square: 0.02,
+        },
+        reference_to_world: glam::DMat4::IDENTITY,
+    }
+}
+
+#[test]
+fn a_calibration_prompts_the_operator_for_each_board_pose_and_publishes_the_bundle() {
+    use matscan_scan::calib_bundle::CalibManifest;
+    let dir = tempfile::tempdir().unwrap();
+    let (mut rig, _turntable, button) = hand_turned_rig();
+    rig.calibration_target = Some(board_target());
+    let target = dir.path().join("calib-0001");
+    let mut prompts = Vec::new();
+    let plan = BoardPlan::new(3, 1).unwrap();
+    let out = with_ready_operator(button, || {
+        rig.capture_calibration(
+            plan,
+            &target,
+            &settings(),
+            &|| false,
+            &mut |p| prompts.push(p.to_string()),
+            &mut |_| {},
+        )
+    })
+    .unwrap();
+    // 2 positions x 3 poses, then one Gray-code pose at p0: the flash photo
+    // and 2 x (10 + 10) stripe images of the 1024 x 768 projector.
+    assert_eq!((out.positions, out.shots, out.graycode_shots), (2, 7, 1));
+    assert_eq!(out.photos, 6 + 41);
+    // A prompt per pose, and one to move on to p1 (no turntable).
+    assert_eq!(prompts.len(), 8, "{prompts:?}");
+    assert!(prompts[0].contains("reference placement"), "{prompts:?}");
+    assert!(prompts[1].contains("pose 2 of 3"), "{prompts:?}");
+    assert!(prompts[3].contains("projector"), "{prompts:?}");
+    assert_eq!(prompts[4], "move the object to p1");
+    let manifest = CalibManifest::read(&target).unwrap();
+    assert_eq!(manifest.board, board_target().board);
+    assert_eq!(manifest.positions.len(), 2);
+    let p0 = &manifest.positions[0];
+    assert_eq!(p0.shots.len(), 4);
+    assert!(p0.shots[0].reference && !p0.shots[1].reference);
+    let folder = target.join(p0.shots[3].graycode.as_ref().unwrap());
+    assert_eq!(std::fs::read_dir(&folder).unwrap().count(), 41);
+    assert!(folder.join("columns-09-inv.exr").is_file());
+    assert_eq!(
+        manifest.projector.map(|p| (p.width, p.height)),
+        Some((1024, 768))
+    );
+}
+
+#[test]
+fn a_calibration_without_a_board_or_a_projector_says_what_is_missing_and_writes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let (mut rig, _turntable, _button) = hand_turned_rig();
+    let target = dir.path().join("calib-0001");
+    let run = |rig: &mut RigDevices, plan| {
+        rig.capture_calibration(
+            plan,
+            &target,
+            &settings(),
+            &|| false,
+            &mut |_| {},
+            &mut |_| {},
+        )
+    };
+    let err = run(&mut rig, BoardPlan::new(3, 0).unwrap()).unwrap_err();
+    assert!(matches!(err, CaptureError::NoCalibrationTarget), "{err}");
+    assert!(err.to_string().contains("[calibration] board"), "{err}");
+    rig.calibration_target = Some(board_target());
+    rig.projector = None;
+    let err = run(&mut rig, BoardPlan::new(3, 2).unwrap()).unwrap_err();
+    assert!(err.to_string().contains("no projector"), "{err}");
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
 }

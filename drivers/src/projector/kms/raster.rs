@@ -11,6 +11,7 @@
 //! and copied to every row: 1920x1080 costs about a memcpy of the frame.
 
 use crate::traits::ProjectorPattern;
+use matscan_scan::GrayAxis;
 
 /// Bytes per XRGB8888 pixel.
 pub const BYTES_PER_PIXEL: usize = 4;
@@ -137,6 +138,33 @@ pub fn render(
             for (v, r) in rows.enumerate() {
                 let j_even = checker_index(v as u32, c.phase_px[1], period) % 2 == 0;
                 r[..row_bytes].copy_from_slice(if j_even { &even } else { &odd });
+            }
+        }
+        ProjectorPattern::GrayCode(g) => {
+            let code = |at: u32| {
+                let v = pattern.value_at(
+                    at * u32::from(g.axis == GrayAxis::Columns),
+                    at * u32::from(g.axis == GrayAxis::Rows),
+                );
+                pixel(gamma.code(v))
+            };
+            match g.axis {
+                // Stripes across the columns: one row template for all rows.
+                GrayAxis::Columns => {
+                    let mut template = vec![0u8; row_bytes];
+                    for (u, p) in template.chunks_exact_mut(BYTES_PER_PIXEL).enumerate() {
+                        p.copy_from_slice(&code(u as u32));
+                    }
+                    rows.for_each(|r| r[..row_bytes].copy_from_slice(&template));
+                }
+                GrayAxis::Rows => {
+                    for (v, r) in rows.enumerate() {
+                        let px = code(v as u32);
+                        r[..row_bytes]
+                            .chunks_exact_mut(BYTES_PER_PIXEL)
+                            .for_each(|p| p.copy_from_slice(&px));
+                    }
+                }
             }
         }
     }
@@ -267,6 +295,17 @@ mod tests {
         let mut buf = vec![0u8; 8 * 2];
         render(&half, g, 2, 2, 8, &mut buf).unwrap();
         assert_eq!(buf[..4], [186, 186, 186, 0]);
+    }
+
+    #[test]
+    fn every_gray_code_image_matches_the_contract() {
+        let g = Gamma::DEFAULT;
+        let codes = crate::traits::GrayCode::sequence(37, 23);
+        // 6 column bits and 5 row bits, each with its inverse.
+        assert_eq!(codes.len(), 2 * (6 + 5));
+        for code in codes {
+            assert_matches_contract(&ProjectorPattern::GrayCode(code), 37, 23, 8, g);
+        }
     }
 
     #[test]

@@ -559,6 +559,19 @@ impl<T: HidTransport> LightCrafter<T> {
             ProjectorPattern::Black => lit(0),
             ProjectorPattern::Uniform(level) => lit(tpg_code(level)),
             ProjectorPattern::Checker(c) if c.low == c.high => lit(tpg_code(c.low)),
+            ProjectorPattern::GrayCode(g) => {
+                return Err(DriverError::InvalidSetting {
+                    device: self.name.clone(),
+                    reason: format!(
+                        "cannot show the Gray code of the projector's {} (bit {}): the \
+                         LightCrafter's test pattern generator shows no stripes of a chosen \
+                         width; drive the projector through its HDMI input with the DRM/KMS \
+                         projector to calibrate it",
+                        g.axis.name(),
+                        g.bit
+                    ),
+                })
+            }
             ProjectorPattern::Checker(c) => {
                 return Err(DriverError::InvalidSetting {
                     device: self.name.clone(),

@@ -1,0 +1,101 @@
+//! The rig calibrated from its own photos, end to end: `matscan calib
+//! capture` asks the daemon (the simulated rig, whose operator holds the
+//! printed board) for the board photos, `matscan calib rig` turns them into
+//! a rig file, and `matscan calib compare` judges it against the rig the
+//! simulator really has.
+
+use crate::daemon_support;
+
+use daemon_support::{matscan, stdout, TestDaemon};
+use matscan_scan::Manifest;
+use serde_json::Value;
+
+#[test]
+fn calib_capture_through_the_daemon_calibrates_the_simulated_rig_and_names_a_missing_shot() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = TestDaemon::start(
+        dir.path(),
+        "",
+        "seed = 1\nsize = 448\npositions = 2\nsamples = 4\nturntable = true",
+    );
+    let socket = d.socket.display().to_string();
+    let o = matscan(&[
+        "calib",
+        "capture",
+        "--target",
+        "board",
+        "--shots",
+        "6",
+        "--projector-shots",
+        "3",
+        "--socket",
+        &socket,
+        "--json",
+    ]);
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let v: Value = serde_json::from_str(stdout(&o).lines().last().unwrap_or("")).unwrap();
+    let bundle = d.scans.join("calib-0001");
+    assert_eq!(v["bundle"], bundle.display().to_string());
+    // 2 x 6 board shots, 3 Gray-code poses of a flash photo and 2 x 20
+    // stripe images each (a 1024 x 768 projector: 10 bits per axis).
+    assert_eq!(v["summary"]["shots"], 15, "{v}");
+    assert_eq!(v["summary"]["graycode_shots"], 3);
+    assert_eq!(v["summary"]["photos"], 12 + 3 * 41);
+    let status: Value = serde_json::from_str(&stdout(&matscan(&[
+        "status", "--socket", &socket, "--json",
+    ])))
+    .unwrap();
+    assert_eq!(status["last_calibrations"][0]["bundle"], v["bundle"]);
+    assert_eq!(status["last_scans"], Value::Array(vec![]));
+    d.stop();
+
+    let b = bundle.to_str().unwrap();
+    let o = matscan(&["calib", "rig", b]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let out = stdout(&o);
+    assert!(
+        out.contains("15 shots") && out.contains("3 Gray-code shots"),
+        "{out}"
+    );
+    for f in ["rig.toml", "calib-report.toml", "contact-sheet.png"] {
+        assert!(bundle.join("result").join(f).exists(), "missing {f}");
+    }
+    let measured = bundle.join("result/rig.toml");
+    let truth = bundle.join("truth-rig.toml");
+    let (m, _) = Manifest::read_rig(&measured).unwrap();
+    let (t, _) = Manifest::read_rig(&truth).unwrap();
+    let focal = (m.camera.fx / t.camera.fx - 1.0).abs();
+    assert!(focal < 0.005, "focal length off by {:.3} %", focal * 100.0);
+    for (mp, tp) in m.positions.iter().zip(&t.positions) {
+        let shift = (mp.camera_to_world.w_axis - tp.camera_to_world.w_axis)
+            .truncate()
+            .length();
+        assert!(
+            shift < 0.005,
+            "{}: camera {:.2} mm off",
+            mp.name,
+            shift * 1e3
+        );
+    }
+    let o = matscan(&[
+        "calib",
+        "compare",
+        measured.to_str().unwrap(),
+        truth.to_str().unwrap(),
+    ]);
+    assert!(o.status.success() && stdout(&o).contains("projector: focal length"));
+
+    // A shot the bundle lists but the folder lacks: named, nothing written.
+    std::fs::remove_dir_all(bundle.join("result")).unwrap();
+    std::fs::remove_file(bundle.join("p1/board-03.exr")).unwrap();
+    let o = matscan(&["calib", "rig", b]);
+    assert_eq!(o.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("p1/board-03.exr"), "{err}");
+    assert!(!bundle.join("result").exists());
+}

@@ -1,0 +1,394 @@
+//! The calibration capture: photos of a printed board that `matscan calib
+//! rig` turns into the rig calibration file, taken by the same sequencer,
+//! drivers and operator loop as a scan, and published as a
+//! `matscan-calib/1` bundle.
+//!
+//! Per position (the turntable turns, or the operator moves the camera and
+//! presses): the board at its reference placement, then hand-held at
+//! further poses, each photo under both flashes. At the first position the
+//! board is then held where the projector lights it whole, and each such
+//! pose is photographed under the flashes and under every Gray-code image
+//! of the projector's columns and rows (each bit and its inverse). Before
+//! each pose the operator is prompted and the sequencer waits for the
+//! footswitch, as between a scan's positions; the simulated rig's
+//! operator ([`matscan_drivers::TargetHand`]) places the board itself.
+//!
+//! The bundle is built in a hidden temporary folder and renamed into place
+//! only when complete, so an error or a cancellation leaves nothing that
+//! looks like a calibration.
+
+use super::{CaptureError, Progress, RigDevices, RunSettings};
+use matscan_drivers::{
+    monotonic_now, CameraSettings, GrayCode, Level, LightId, ProjectorPattern, TargetPlacement,
+};
+use matscan_scan::atomic::{write_atomic, PendingDir};
+use matscan_scan::calib_bundle::{
+    graycode_file, CalibManifest, CalibPosition, Chessboard, ProjectorSize, Shot, CALIB_MANIFEST,
+};
+use matscan_scan::image_io::write_rgb_exr;
+use matscan_scan::raster::RgbRaster;
+use matscan_scan::Precision;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// The printed board and where its reference placement stands in the
+/// world (board frame to world).
+#[derive(Debug, Clone, PartialEq)]
+pub struct CalibrationTarget {
+    pub board: Chessboard,
+    pub reference_to_world: glam::DMat4,
+}
+
+/// How many board poses a calibration photographs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct BoardPlan {
+    /// Poses per position, the reference placement included.
+    pub shots: usize,
+    /// Further poses at the first position with the projector's Gray codes
+    /// (0: the projector is not calibrated).
+    pub projector_shots: usize,
+}
+
+impl BoardPlan {
+    /// Most poses per position or for the projector a request may ask.
+    pub const MAX_SHOTS: usize = 64;
+
+    /// `None` unless there is at least the reference shot and neither count
+    /// exceeds [`BoardPlan::MAX_SHOTS`].
+    pub fn new(shots: usize, projector_shots: usize) -> Option<BoardPlan> {
+        ((1..=Self::MAX_SHOTS).contains(&shots) && projector_shots <= Self::MAX_SHOTS).then_some(
+            BoardPlan {
+                shots,
+                projector_shots,
+            },
+        )
+    }
+}
+
+/// What a finished calibration capture produced.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CalibrationOutcome {
+    /// The published bundle.
+    pub bundle: PathBuf,
+    pub positions: usize,
+    /// Board photos (the Gray-code poses' flash photos included).
+    pub shots: usize,
+    pub graycode_shots: usize,
+    /// Every photo taken.
+    pub photos: usize,
+    pub seconds: f64,
+}
+
+impl RigDevices {
+    /// Photographs the board `plan` asks for and publishes the calibration
+    /// bundle at `target` (which must not exist). `prompt` hears what the
+    /// operator is to do before each pose; `stop` and `progress` as for
+    /// [`RigDevices::capture`].
+    pub fn capture_calibration(
+        &mut self,
+        plan: BoardPlan,
+        target: &Path,
+        settings: &RunSettings,
+        stop: &dyn Fn() -> bool,
+        prompt: &mut dyn FnMut(&str),
+        progress: &mut dyn FnMut(Progress),
+    ) -> Result<CalibrationOutcome, CaptureError> {
+        let result = self.calibration_inner(plan, target, settings, stop, prompt, progress);
+        if let Some(hand) = self.hand.as_mut() {
+            hand.remove();
+        }
+        if let Err(e) = self.lights.all_off() {
+            tracing::warn!("switching the lights off after the calibration: {e}");
+        }
+        if let Some(projector) = self.projector.as_mut() {
+            if let Err(e) = projector.show(ProjectorPattern::Black) {
+                tracing::warn!("blanking the projector after the calibration: {e}");
+            }
+        }
+        result
+    }
+
+    fn calibration_inner(
+        &mut self,
+        plan: BoardPlan,
+        target: &Path,
+        settings: &RunSettings,
+        stop: &dyn Fn() -> bool,
+        prompt: &mut dyn FnMut(&str),
+        progress: &mut dyn FnMut(Progress),
+    ) -> Result<CalibrationOutcome, CaptureError> {
+        let start = Instant::now();
+        let board = self
+            .calibration_target
+            .clone()
+            .ok_or(CaptureError::NoCalibrationTarget)?;
+        let codes = self.gray_codes(plan)?;
+        let count = self.geometry.positions.len();
+        if count > 1 && self.positioner.is_none() && self.trigger.is_none() {
+            return Err(CaptureError::CannotMove { positions: count });
+        }
+        let total = count * plan.shots + plan.projector_shots * (1 + codes.len());
+        let pending = PendingDir::create(target)?;
+        self.lights.all_off()?;
+        if let Some(projector) = self.projector.as_mut() {
+            projector.show(ProjectorPattern::Black)?;
+        }
+        self.home()?;
+        let mut done = 0;
+        let mut positions = Vec::with_capacity(count);
+        for index in 0..count {
+            let geometry = self.geometry.positions[index].clone();
+            if index > 0 {
+                if self.positioner.is_none() {
+                    prompt(&format!("move the object to {}", geometry.name));
+                }
+                self.next_position(&geometry.name, settings, stop)?;
+            }
+            let exposure =
+                CameraSettings::new(geometry.exposure_s, 1.0, 5000).ok_or_else(|| {
+                    CaptureError::BadExposure {
+                        position: geometry.name.clone(),
+                        exposure_s: geometry.exposure_s,
+                    }
+                })?;
+            self.camera.lock(exposure)?;
+            let folder = PathBuf::from(&geometry.name);
+            create_dir(&pending.path().join(&folder))?;
+            let mut shots = Vec::new();
+            for s in 0..plan.shots {
+                let (placement, task) = if s == 0 {
+                    (
+                        TargetPlacement::Reference,
+                        format!(
+                            "put the board at its reference placement, seen from {}",
+                            geometry.name
+                        ),
+                    )
+                } else {
+                    (
+                        TargetPlacement::HandHeld,
+                        format!(
+                            "hold the board at a new pose before the camera at {} (pose {} of {}), whole in view and tilted",
+                            geometry.name,
+                            s + 1,
+                            plan.shots
+                        ),
+                    )
+                };
+                self.present(index, placement, &task, settings, stop, prompt)?;
+                let file = folder.join(format!("board-{s:02}.exr"));
+                self.photograph_board(pending.path(), &file)?;
+                done += 1;
+                progress(Progress {
+                    done,
+                    total,
+                    what: file.display().to_string(),
+                });
+                shots.push(Shot {
+                    file,
+                    reference: s == 0,
+                    graycode: None,
+                });
+            }
+            if index == 0 {
+                for k in 0..plan.projector_shots {
+                    let task = format!(
+                        "hold the board where the projector lights it whole (Gray-code pose {} of {})",
+                        k + 1,
+                        plan.projector_shots
+                    );
+                    self.present(
+                        index,
+                        TargetPlacement::InProjectorView,
+                        &task,
+                        settings,
+                        stop,
+                        prompt,
+                    )?;
+                    let shot = folder.join(format!("projector-{k:02}"));
+                    create_dir(&pending.path().join(&shot))?;
+                    let file = shot.join("board.exr");
+                    self.photograph_board(pending.path(), &file)?;
+                    done += 1;
+                    progress(Progress {
+                        done,
+                        total,
+                        what: file.display().to_string(),
+                    });
+                    for code in &codes {
+                        if stop() {
+                            return Err(CaptureError::Cancelled);
+                        }
+                        let frame = self.with_projector(ProjectorPattern::GrayCode(*code))?;
+                        let name = shot.join(graycode_file(code.axis, code.bit, code.inverted));
+                        self.write_photo(pending.path(), &name, &frame)?;
+                        done += 1;
+                        progress(Progress {
+                            done,
+                            total,
+                            what: name.display().to_string(),
+                        });
+                    }
+                    shots.push(Shot {
+                        file,
+                        reference: false,
+                        graycode: Some(shot),
+                    });
+                }
+            }
+            positions.push(CalibPosition {
+                name: geometry.name.clone(),
+                shots,
+            });
+        }
+        if let Some(hand) = self.hand.as_mut() {
+            hand.remove();
+        }
+        self.home()?;
+        let projector = match (plan.projector_shots, self.projector.as_ref()) {
+            (0, _) | (_, None) => None,
+            (_, Some(p)) => {
+                let (width, height) = p.resolution();
+                Some(ProjectorSize { width, height })
+            }
+        };
+        let manifest = CalibManifest {
+            units: "m".into(),
+            board: board.board,
+            reference_to_world: board.reference_to_world,
+            positions,
+            projector,
+        };
+        write_atomic(
+            &pending.path().join(CALIB_MANIFEST),
+            manifest.to_toml().as_bytes(),
+        )?;
+        // A simulated rig's truth, for `matscan calib compare`.
+        if let Some(rig) = self.truth.as_ref().and_then(|t| t.rig()) {
+            write_atomic(
+                &pending.path().join(matscan_sim::calib_target::TRUTH_RIG),
+                rig.to_toml().as_bytes(),
+            )?;
+        }
+        let bundle = pending.publish()?;
+        Ok(CalibrationOutcome {
+            bundle,
+            positions: count,
+            shots: count * plan.shots + plan.projector_shots,
+            graycode_shots: plan.projector_shots,
+            photos: total,
+            seconds: start.elapsed().as_secs_f64(),
+        })
+    }
+
+    /// The Gray-code images each projector pose needs; an error when the
+    /// plan wants them and the projector is missing or cannot show them.
+    fn gray_codes(&self, plan: BoardPlan) -> Result<Vec<GrayCode>, CaptureError> {
+        if plan.projector_shots == 0 {
+            return Ok(Vec::new());
+        }
+        let projector =
+            self.projector
+                .as_ref()
+                .ok_or_else(|| CaptureError::CannotShowGrayCode {
+                    device: "projector".into(),
+                    reason: "this rig has no projector; ask for no projector shots".into(),
+                })?;
+        let (width, height) = projector.resolution();
+        let codes = GrayCode::sequence(width, height);
+        if let Some(code) = codes
+            .iter()
+            .find(|c| !projector.can_show(&ProjectorPattern::GrayCode(**c)))
+        {
+            return Err(CaptureError::CannotShowGrayCode {
+                device: projector.id().to_string(),
+                reason: format!(
+                    "it cannot show the Gray code of its {} (bit {})",
+                    code.axis.name(),
+                    code.bit
+                ),
+            });
+        }
+        Ok(codes)
+    }
+
+    /// The board placed for the next photos: by the simulated operator's
+    /// hand, or by the operator, prompted, who presses when done.
+    fn present(
+        &mut self,
+        position: usize,
+        placement: TargetPlacement,
+        task: &str,
+        settings: &RunSettings,
+        stop: &dyn Fn() -> bool,
+        prompt: &mut dyn FnMut(&str),
+    ) -> Result<(), CaptureError> {
+        if stop() {
+            return Err(CaptureError::Cancelled);
+        }
+        prompt(task);
+        if let Some(hand) = self.hand.as_mut() {
+            hand.place(position, placement)?;
+            self.camera.scene_changed(monotonic_now());
+            return Ok(());
+        }
+        self.wait_for_press(
+            task,
+            &format!("to say the board is placed ({task})"),
+            settings,
+            stop,
+        )?;
+        Ok(())
+    }
+
+    /// Photographs the board under both flashes into `root/file`.
+    fn photograph_board(&mut self, root: &Path, file: &Path) -> Result<(), CaptureError> {
+        let flashes = [LightId::Flash0, LightId::Flash1];
+        for light in flashes {
+            self.lights.on(light, Level::FULL)?;
+        }
+        self.camera.scene_changed(monotonic_now());
+        let frame = self.camera.capture();
+        for light in flashes {
+            self.lights.off(light)?;
+        }
+        self.camera.scene_changed(monotonic_now());
+        self.write_photo(root, file, &frame?.rgb)
+    }
+
+    /// One photo with the projector alone showing `pattern`, then black.
+    fn with_projector(&mut self, pattern: ProjectorPattern) -> Result<RgbRaster, CaptureError> {
+        self.projector()?.show(pattern)?;
+        self.camera.scene_changed(monotonic_now());
+        let frame = self.camera.capture();
+        self.projector()?.show(ProjectorPattern::Black)?;
+        self.camera.scene_changed(monotonic_now());
+        Ok(frame?.rgb)
+    }
+
+    /// Writes `rgb` at `root/file` (half-float EXR, as scan photos) and
+    /// books it on the disk quota.
+    fn write_photo(&self, root: &Path, file: &Path, rgb: &RgbRaster) -> Result<(), CaptureError> {
+        let path = root.join(file);
+        write_rgb_exr(&path, rgb, Precision::Half)?;
+        if let Some(disk) = &self.disk {
+            let bytes = std::fs::metadata(&path)
+                .map_err(|source| matscan_scan::ScanError::Io {
+                    path: path.clone(),
+                    source,
+                })?
+                .len();
+            disk.reserve(&path, bytes)?;
+        }
+        Ok(())
+    }
+}
+
+fn create_dir(path: &Path) -> Result<(), CaptureError> {
+    std::fs::create_dir_all(path).map_err(|source| {
+        CaptureError::Scan(matscan_scan::ScanError::Io {
+            path: path.to_path_buf(),
+            source,
+        })
+    })
+}
