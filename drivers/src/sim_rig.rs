@@ -39,7 +39,7 @@ use crate::traits::{
     Positioner, Press, Projector, ProjectorPattern, TargetHand, TargetPlacement, Trigger,
 };
 use matscan_scan::raster::RgbRaster;
-use matscan_sim::calib_target::BoardHolder;
+use matscan_sim::calib_target::{BoardHolder, INNER_CORNERS};
 use matscan_sim::render::{CaptureSpec, RenderOptions, Renderer};
 use matscan_sim::scene::Scene;
 use std::path::Path;
@@ -55,8 +55,6 @@ pub const PROJECTOR_ID: &str = "sim:projector";
 pub const POSITIONER_ID: &str = "sim:turntable";
 pub const TRIGGER_ID: &str = "sim:footswitch";
 pub const HAND_ID: &str = "sim:operator";
-/// Inner corners of the simulated operator's printed board.
-pub const BOARD_INNER_CORNERS: (u32, u32) = (9, 6);
 
 /// Faults to inject.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -215,7 +213,7 @@ impl SimBench {
                 stage: stage.clone(),
             },
             hand: SimHand {
-                holder: BoardHolder::new(&scene.rig, BOARD_INNER_CORNERS, config.seed),
+                holder: BoardHolder::new(&scene.rig, INNER_CORNERS, config.seed),
                 stage: stage.clone(),
             },
             positioner: SimPositioner { scene, stage },

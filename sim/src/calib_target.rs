@@ -33,8 +33,13 @@ use std::path::{Path, PathBuf};
 
 /// Texture resolution of the board: texels along one square's edge.
 pub const TEXELS_PER_SQUARE: u32 = 32;
-/// How far the reference board leans back from facing the base camera.
-pub const REFERENCE_LEAN_DEG: f64 = 25.0;
+/// The angle between the reference board's normal and each camera's view
+/// of it that the reference placement aims at.
+pub const REFERENCE_VIEW_DEG: f64 = 45.0;
+/// Inner corners (columns, rows) of the simulated operator's board: many
+/// corners fix each pose better, above all the reference pose on which a
+/// position's camera pose rests alone.
+pub const INNER_CORNERS: (u32, u32) = (13, 9);
 /// The rig file the simulator writes beside the photos: the truth.
 pub const TRUTH_RIG: &str = "truth-rig.toml";
 const WHITE: f32 = 0.8;
@@ -71,7 +76,7 @@ impl Default for BoardBundleOptions {
             positions: 3,
             shots_per_position: 8,
             projector_shots: 6,
-            inner_corners: (9, 6),
+            inner_corners: INNER_CORNERS,
             distortion: [-0.08, 0.05, 0.0005, -0.0003, 0.0],
             seed: 1,
             samples: 16,
@@ -171,13 +176,39 @@ pub fn board_for(rig: &Rig, inner_corners: (u32, u32)) -> Chessboard {
 /// The reference placement: the board centred on the world origin, where
 /// the object stands, its printed side towards the base position's camera
 /// (-Z), columns along -X and rows along -Y as that camera sees them, and
-/// leaning back by [`REFERENCE_LEAN_DEG`] like a board on an easel: a board
-/// seen head-on fixes the camera's orientation worst, since tilting it
-/// changes its image only to second order.
-pub fn reference_placement(board: &Chessboard) -> DMat4 {
+/// leaning like a board on an easel, turned and tilted so that every
+/// position's camera sees it as near [`REFERENCE_VIEW_DEG`] as can be.
+///
+/// A position's camera pose rests on this one view, and a board seen
+/// nearly head-on hardly tells a sideways camera shift from a turn (its
+/// image changes alike); the board's depth across the view tells them
+/// apart, the more the steeper it is seen, until foreshortening blurs its
+/// corners (`docs/results.md` has the study).
+pub fn reference_placement(board: &Chessboard, rig: &Rig) -> DMat4 {
     let facing = DMat3::from_cols(DVec3::NEG_X, DVec3::NEG_Y, DVec3::Z);
-    let rotation = DMat3::from_rotation_x(REFERENCE_LEAN_DEG.to_radians()) * facing;
     let centre = board.corner(board.cols - 1, board.rows - 1) * 0.5;
+    let target = REFERENCE_VIEW_DEG.to_radians();
+    // How far from the target view the worst camera sees the board's
+    // normal (its z axis); each camera looks at the origin.
+    let miss = |rotation: &DMat3| {
+        let normal = *rotation * DVec3::Z;
+        rig.positions
+            .iter()
+            .map(|p| {
+                let to_camera = p.camera_to_world.w_axis.truncate().normalize_or_zero();
+                (normal.dot(to_camera).abs().clamp(0.0, 1.0).acos() - target).abs()
+            })
+            .fold(0.0, f64::max)
+    };
+    let rotation = (0..=12)
+        .flat_map(|l| (0..24).map(move |k| (f64::from(l) * 5.0, k)))
+        .map(|(lean_deg, k)| {
+            let heading = f64::from(k) * std::f64::consts::TAU / 24.0;
+            let axis = DVec3::new(heading.cos(), heading.sin(), 0.0);
+            DMat3::from_axis_angle(axis, lean_deg.to_radians()) * facing
+        })
+        .min_by(|a, b| miss(a).total_cmp(&miss(b)))
+        .unwrap_or(facing);
     DMat4::from_rotation_translation(DQuat::from_mat3(&rotation), -(rotation * centre))
 }
 
@@ -284,7 +315,7 @@ impl BoardHolder {
 
     /// The board's reference placement, board to world.
     pub fn reference_to_world(&self) -> DMat4 {
-        reference_placement(&self.board)
+        reference_placement(&self.board, &self.rig)
     }
 
     /// The scene with the board at its reference placement.
@@ -353,7 +384,7 @@ pub fn write_board_bundle(
     );
     rig.intrinsics.distortion = opts.distortion;
     let board = board_for(&rig, opts.inner_corners);
-    let reference = reference_placement(&board);
+    let reference = reference_placement(&board, &rig);
     let env = Environment::from_spec(&board_scene(&board, reference, &rig).environment)?;
     let ropts = RenderOptions {
         samples: opts.samples,

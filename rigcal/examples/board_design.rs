@@ -1,0 +1,277 @@
+//! How the calibration's design decides a camera's pose error: noisy
+//! synthetic corners of the simulated rig's board (the true projection plus
+//! Gaussian noise of 0.05 px per coordinate, about a 1024 px render's)
+//! through the same solver as `matscan calib rig`, 24 random draws per
+//! design on the rigs of `matscan calib board --seed 1..3`. Prints, per
+//! rig and design, the worst position's camera error (median and 90th
+//! percentile over the draws), and the focal length's and principal
+//! point's median errors. The figures are in `docs/results.md`.
+//!
+//! ```sh
+//! cargo run --release -p matscan-rigcal --example board_design
+//! ```
+//!
+//! A design is the shots per position, the hand-held tilt range, the
+//! hand-held distance range (times the working distance), the reference
+//! board's lean (degrees about the world x axis; negative: the placement
+//! `matscan_sim::calib_target::reference_placement` chooses, every camera
+//! near 45 degrees) and the board's inner corners.
+use glam::{DMat4, DQuat, DVec2, DVec3};
+use matscan_rigcal::camera::{solve_camera, Acceptance};
+use matscan_rigcal::compare::pose_difference;
+use matscan_rigcal::detect::Corner;
+use matscan_rigcal::model::{project, Pose};
+use matscan_scan::calib_bundle::{CalibManifest, CalibPosition, Chessboard, Shot};
+use matscan_sim::calib_target::board_for;
+use matscan_sim::scene::{random_rig, Rig, RigOptions};
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg64;
+use std::path::{Path, PathBuf};
+
+/// Corner noise per coordinate, pixels.
+const NOISE_PX: f64 = 0.05;
+/// Random draws per rig and design.
+const DRAWS: u64 = 24;
+
+struct Design {
+    name: &'static str,
+    shots: usize,
+    tilt_deg: (f64, f64),
+    distance: (f64, f64),
+    /// `None`: the simulated operator's placement.
+    lean_deg: Option<f64>,
+    corners: (u32, u32),
+}
+
+struct Errors {
+    worst_position_mm: f64,
+    focal_percent: f64,
+    principal_px: f64,
+}
+
+const DESIGNS: [Design; 5] = [
+    Design {
+        name: "lean 25 deg about x, 9x6",
+        shots: 8,
+        tilt_deg: (10.0, 40.0),
+        distance: (0.8, 1.1),
+        lean_deg: Some(25.0),
+        corners: (9, 6),
+    },
+    Design {
+        name: "every camera near 45 deg, 9x6",
+        shots: 8,
+        tilt_deg: (10.0, 40.0),
+        distance: (0.8, 1.1),
+        lean_deg: None,
+        corners: (9, 6),
+    },
+    Design {
+        name: "lean 25 deg about x, 13x9",
+        shots: 8,
+        tilt_deg: (10.0, 40.0),
+        distance: (0.8, 1.1),
+        lean_deg: Some(25.0),
+        corners: (13, 9),
+    },
+    Design {
+        name: "every camera near 45 deg, 13x9",
+        shots: 8,
+        tilt_deg: (10.0, 40.0),
+        distance: (0.8, 1.1),
+        lean_deg: None,
+        corners: (13, 9),
+    },
+    Design {
+        name: "every camera near 45 deg, 13x9, 12 shots",
+        shots: 12,
+        tilt_deg: (10.0, 40.0),
+        distance: (0.8, 1.1),
+        lean_deg: None,
+        corners: (13, 9),
+    },
+];
+
+fn pose(
+    rng: &mut Pcg64,
+    board: &Chessboard,
+    rig: &Rig,
+    c2w: DMat4,
+    tilt: (f64, f64),
+    far: (f64, f64),
+) -> DMat4 {
+    let k = rig.intrinsics;
+    let distance = c2w.w_axis.truncate().length();
+    let (sq_x, sq_y) = board.squares();
+    let (x1, y1) = (
+        (f64::from(sq_x) - 0.5) * board.square,
+        (f64::from(sq_y) - 0.5) * board.square,
+    );
+    let outline = [
+        DVec3::new(-1.5 * board.square, -1.5 * board.square, 0.0),
+        DVec3::new(x1, -1.5 * board.square, 0.0),
+        DVec3::new(x1, y1, 0.0),
+        DVec3::new(-1.5 * board.square, y1, 0.0),
+    ];
+    let centre = board.corner(board.cols - 1, board.rows - 1) * 0.5;
+    loop {
+        let heading = rng.gen_range(0.0..std::f64::consts::TAU);
+        let t = rng.gen_range(tilt.0.to_radians()..tilt.1.to_radians());
+        let rotation = DQuat::from_rotation_z(rng.gen_range(-0.26..0.26))
+            * DQuat::from_axis_angle(DVec3::new(heading.cos(), heading.sin(), 0.0), t);
+        let z = distance * rng.gen_range(far.0..far.1);
+        let spread = 0.35 * z * f64::from(k.width) / k.fx;
+        let at = DVec3::new(
+            rng.gen_range(-spread..spread),
+            rng.gen_range(-spread..spread),
+            z,
+        );
+        let b2c = DMat4::from_rotation_translation(rotation, at - rotation * centre);
+        let fits = outline.iter().all(|&p| {
+            k.project_camera_point(b2c.transform_point3(p))
+                .is_some_and(|px| {
+                    let m = 0.03 * f64::from(k.width.min(k.height));
+                    px.x > m
+                        && px.y > m
+                        && px.x < f64::from(k.width) - m
+                        && px.y < f64::from(k.height) - m
+                })
+        });
+        if fits {
+            return c2w * b2c;
+        }
+    }
+}
+
+fn gauss(rng: &mut Pcg64) -> f64 {
+    let u: f64 = rng.gen_range(1e-12..1.0);
+    let v: f64 = rng.gen_range(0.0..1.0);
+    (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
+}
+
+/// One draw of `design` on the rig of `seed`; `None` when the solver
+/// refuses it.
+fn trial(seed: u64, draw: u64, design: &Design) -> Option<Errors> {
+    let mut rng = Pcg64::seed_from_u64(seed);
+    let mut rig = random_rig(
+        &mut rng,
+        RigOptions {
+            width: 1024,
+            height: 1024,
+            positions: 3,
+        },
+    );
+    rig.intrinsics.distortion = [-0.08, 0.05, 0.0005, -0.0003, 0.0];
+    let board = board_for(&rig, design.corners);
+    let reference = match design.lean_deg {
+        None => matscan_sim::calib_target::reference_placement(&board, &rig),
+        Some(lean) => {
+            let facing = glam::DMat3::from_cols(DVec3::NEG_X, DVec3::NEG_Y, DVec3::Z);
+            let rotation = glam::DMat3::from_rotation_x(lean.to_radians()) * facing;
+            let centre = board.corner(board.cols - 1, board.rows - 1) * 0.5;
+            DMat4::from_rotation_translation(DQuat::from_mat3(&rotation), -(rotation * centre))
+        }
+    };
+    let mut rng = Pcg64::seed_from_u64(1000 + draw);
+    let mut detections = Vec::new();
+    let mut positions = Vec::new();
+    for (p, at) in rig.positions.iter().enumerate() {
+        let w2c = at.camera_to_world.inverse();
+        let mut list = Vec::new();
+        for s in 0..design.shots {
+            let b2w = if s == 0 {
+                reference
+            } else {
+                pose(
+                    &mut rng,
+                    &board,
+                    &rig,
+                    at.camera_to_world,
+                    design.tilt_deg,
+                    design.distance,
+                )
+            };
+            let pose_c = Pose::from_matrix(&(w2c * b2w));
+            let corners: Vec<Corner> = (0..board.rows)
+                .flat_map(|j| (0..board.cols).map(move |i| (i, j)))
+                .map(|(i, j)| Corner {
+                    i,
+                    j,
+                    pixel: project(&rig.intrinsics, &pose_c, board.corner(i, j))
+                        + DVec2::new(NOISE_PX * gauss(&mut rng), NOISE_PX * gauss(&mut rng)),
+                })
+                .collect();
+            detections.push(corners);
+            list.push(Shot {
+                file: PathBuf::from(format!("p{p}/b{s}.exr")),
+                reference: s == 0,
+                graycode: None,
+            });
+        }
+        positions.push(CalibPosition {
+            name: at.name.clone(),
+            shots: list,
+        });
+    }
+    let m = CalibManifest {
+        units: "m".into(),
+        board,
+        reference_to_world: reference,
+        positions,
+        projector: None,
+    };
+    let cal = solve_camera(
+        Path::new("x"),
+        &m,
+        detections,
+        (1024, 1024),
+        &Acceptance {
+            max_rms_px: 10.0,
+            max_tilt_deg: 89.0,
+            ..Acceptance::default()
+        },
+    )
+    .ok()?;
+    let mut worst: f64 = 0.0;
+    for ((_, c2w), at) in cal.camera_to_world.iter().zip(&rig.positions) {
+        worst = worst.max(pose_difference(c2w, &at.camera_to_world).0);
+    }
+    let f = (cal.camera.fx / rig.intrinsics.fx - 1.0).abs() * 100.0;
+    let pp = (DVec2::new(cal.camera.cx, cal.camera.cy)
+        - DVec2::new(rig.intrinsics.cx, rig.intrinsics.cy))
+    .length();
+    Some(Errors {
+        worst_position_mm: worst * 1e3,
+        focal_percent: f,
+        principal_px: pp,
+    })
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
+}
+
+fn main() {
+    println!("rig | design | worst position, median mm | 90th percentile mm | focal, median % | principal point, median px | refused");
+    for seed in [1u64, 2, 3] {
+        for design in &DESIGNS {
+            let found: Vec<Errors> = (0..DRAWS).filter_map(|d| trial(seed, d, design)).collect();
+            let mut positions: Vec<f64> = found.iter().map(|e| e.worst_position_mm).collect();
+            positions.sort_by(f64::total_cmp);
+            let p90 = positions
+                .get(positions.len() * 9 / 10)
+                .copied()
+                .unwrap_or(f64::NAN);
+            println!(
+                "{seed} | {} | {:.2} | {:.2} | {:.4} | {:.3} | {}",
+                design.name,
+                median(positions.clone()),
+                p90,
+                median(found.iter().map(|e| e.focal_percent).collect()),
+                median(found.iter().map(|e| e.principal_px).collect()),
+                DRAWS as usize - found.len()
+            );
+        }
+    }
+}
