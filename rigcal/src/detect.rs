@@ -104,24 +104,50 @@ pub fn find_board_in(
             "the board is turned a quarter: its {cols} corner columns run down the photo"
         )));
     }
-    if (span_u, span_v) != (cols, rows) || detection.corners.len() != board.corner_count() {
+    let found: std::collections::HashMap<(i32, i32), DVec2> = detection
+        .corners
+        .iter()
+        .map(|c| {
+            (
+                (c.grid.u, c.grid.v),
+                DVec2::new(
+                    f64::from(c.position.x) + DETECTOR_TO_CONTRACT,
+                    f64::from(c.position.y) + DETECTOR_TO_CONTRACT,
+                ),
+            )
+        })
+        .collect();
+    let origin = if (span_u, span_v) == (cols, rows)
+        && 10 * detection.corners.len() >= 9 * board.corner_count()
+    {
+        // The whole board's outline, a few inner corners missed (a square
+        // too foreshortened or blurred to show its saddle): the labels are
+        // still the board's, and the solver uses the corners it has.
+        Some((min_u, min_v))
+    } else if span_u >= cols && span_v >= rows {
+        // More than the board: a row or column of false corners along its
+        // outline (where the margin meets the background). The board is
+        // the window of its size whose corners a plane's homography fits.
+        best_window(&found, board, (min_u, max_u), (min_v, max_v))
+    } else {
+        None
+    };
+    let Some((u0, v0)) = origin else {
         return Err(not_found(format!(
             "found {} corners spanning {span_u} x {span_v}, expected all {} of the \
              board's {cols} x {rows}",
             detection.corners.len(),
             board.corner_count()
         )));
-    }
-    let mut corners: Vec<Corner> = detection
-        .corners
-        .iter()
-        .map(|c| Corner {
-            i: (c.grid.u - min_u) as u32,
-            j: (c.grid.v - min_v) as u32,
-            pixel: DVec2::new(
-                f64::from(c.position.x) + DETECTOR_TO_CONTRACT,
-                f64::from(c.position.y) + DETECTOR_TO_CONTRACT,
-            ),
+    };
+    let mut corners: Vec<Corner> = (0..rows)
+        .flat_map(|j| (0..cols).map(move |i| (i, j)))
+        .filter_map(|(i, j)| {
+            found.get(&(u0 + i, v0 + j)).map(|&pixel| Corner {
+                i: i as u32,
+                j: j as u32,
+                pixel,
+            })
         })
         .collect();
     let luminance = Luminance::of(photo);
@@ -231,6 +257,57 @@ fn refine_saddle(image: &Luminance, start: DVec2, radius: f64) -> Option<DVec2> 
         }
     }
     Some(q)
+}
+
+/// Largest RMS, pixels, of the detector's corners of a board window about
+/// the homography fitted to them; the detector's positions are good to a
+/// few tenths of a pixel, a false row lies half a square off.
+const WINDOW_FIT_PX: f64 = 1.0;
+
+/// The grid origin of the board-sized window of `found` corners that a
+/// plane's homography fits best, when it fits within [`WINDOW_FIT_PX`].
+fn best_window(
+    found: &std::collections::HashMap<(i32, i32), DVec2>,
+    board: &Chessboard,
+    (min_u, max_u): (i32, i32),
+    (min_v, max_v): (i32, i32),
+) -> Option<(i32, i32)> {
+    let (cols, rows) = (board.cols as i32, board.rows as i32);
+    let mut best: Option<(f64, (i32, i32))> = None;
+    for u0 in min_u..=(max_u - cols + 1) {
+        for v0 in min_v..=(max_v - rows + 1) {
+            let pairs: Option<Vec<(DVec2, DVec2)>> = (0..rows)
+                .flat_map(|j| (0..cols).map(move |i| (i, j)))
+                .map(|(i, j)| {
+                    found.get(&(u0 + i, v0 + j)).map(|&px| {
+                        (
+                            board.corner(i as u32, j as u32).truncate(),
+                            px,
+                        )
+                    })
+                })
+                .collect();
+            let Some(pairs) = pairs else { continue };
+            let (plane, pixels): (Vec<DVec2>, Vec<DVec2>) = pairs.into_iter().unzip();
+            let Some(h) = crate::zhang::homography(&plane, &pixels) else {
+                continue;
+            };
+            let rms = (plane
+                .iter()
+                .zip(&pixels)
+                .map(|(p, px)| {
+                    let q = h * p.extend(1.0);
+                    (q.truncate() / q.z - *px).length_squared()
+                })
+                .sum::<f64>()
+                / plane.len() as f64)
+                .sqrt();
+            if rms.is_finite() && best.is_none_or(|(b, _)| rms < b) {
+                best = Some((rms, (u0, v0)));
+            }
+        }
+    }
+    best.filter(|(rms, _)| *rms <= WINDOW_FIT_PX).map(|(_, o)| o)
 }
 
 fn bounds(values: impl Iterator<Item = i32>) -> (i32, i32) {
