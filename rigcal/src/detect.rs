@@ -266,7 +266,7 @@ const WINDOW_FIT_PX: f64 = 1.0;
 
 /// The grid origin of the board-sized window of `found` corners that a
 /// plane's homography fits best, when it fits within [`WINDOW_FIT_PX`].
-fn best_window(
+pub(crate) fn best_window(
     found: &std::collections::HashMap<(i32, i32), DVec2>,
     board: &Chessboard,
     (min_u, max_u): (i32, i32),
@@ -279,12 +279,9 @@ fn best_window(
             let pairs: Option<Vec<(DVec2, DVec2)>> = (0..rows)
                 .flat_map(|j| (0..cols).map(move |i| (i, j)))
                 .map(|(i, j)| {
-                    found.get(&(u0 + i, v0 + j)).map(|&px| {
-                        (
-                            board.corner(i as u32, j as u32).truncate(),
-                            px,
-                        )
-                    })
+                    found
+                        .get(&(u0 + i, v0 + j))
+                        .map(|&px| (board.corner(i as u32, j as u32).truncate(), px))
                 })
                 .collect();
             let Some(pairs) = pairs else { continue };
@@ -307,7 +304,8 @@ fn best_window(
             }
         }
     }
-    best.filter(|(rms, _)| *rms <= WINDOW_FIT_PX).map(|(_, o)| o)
+    best.filter(|(rms, _)| *rms <= WINDOW_FIT_PX)
+        .map(|(_, o)| o)
 }
 
 fn bounds(values: impl Iterator<Item = i32>) -> (i32, i32) {

@@ -420,3 +420,34 @@ fn a_rig_compared_with_itself_differs_by_nothing_and_a_shifted_camera_by_its_shi
     );
     assert!(d.object_px > 0.5 && d.object_px < 2.0, "{d:?}");
 }
+
+#[test]
+fn a_false_row_along_the_boards_outline_is_left_out_of_its_window() {
+    let camera = Intrinsics {
+        distortion: [0.0; 5],
+        ..true_camera()
+    };
+    let pose = poses(3, 30.0)[1];
+    // The board's corners, and one more row half a square beyond its last
+    // (where the white margin meets the background).
+    let mut found = std::collections::HashMap::new();
+    for j in 0..=BOARD.rows {
+        for i in 0..BOARD.cols {
+            let y = if j == BOARD.rows {
+                (f64::from(j) - 0.5) * BOARD.square
+            } else {
+                f64::from(j) * BOARD.square
+            };
+            let p = DVec3::new(f64::from(i) * BOARD.square, y, 0.0);
+            found.insert((i as i32 + 4, j as i32 - 2), project(&camera, &pose, p));
+        }
+    }
+    let rows = (-2, BOARD.rows as i32 - 2);
+    let window = crate::detect::best_window(&found, &BOARD, (4, 4 + BOARD.cols as i32 - 1), rows);
+    assert_eq!(window, Some((4, -2)));
+    // Without the board's first row, no window fits: not found.
+    found.retain(|(_, v), _| *v != -2);
+    let window =
+        crate::detect::best_window(&found, &BOARD, (4, 4 + BOARD.cols as i32 - 1), (-1, rows.1));
+    assert_eq!(window, None);
+}
