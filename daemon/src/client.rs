@@ -297,6 +297,8 @@ pub struct CalibCaptureOptions {
     pub shots: Option<usize>,
     /// Gray-code poses for the projector (default: the daemon's).
     pub projector_shots: Option<usize>,
+    /// Places of the sphere (default: the daemon's).
+    pub placements: Option<usize>,
     /// Print one JSON object (`bundle` and `summary`).
     pub json: bool,
 }
@@ -307,17 +309,15 @@ pub struct CalibCaptureOptions {
 pub fn request_calibration(
     socket: &Path,
     target: &str,
-    shots: Option<usize>,
-    projector_shots: Option<usize>,
+    counts: [(&str, Option<usize>); 3],
     event: &mut dyn FnMut(&Value),
 ) -> Result<(PathBuf, Value), ClientError> {
     let mut conn = Connection::open(socket)?;
     let mut request = json!({"cmd": "calib_capture", "target": target});
-    if let Some(n) = shots {
-        request["shots"] = json!(n);
-    }
-    if let Some(n) = projector_shots {
-        request["projector_shots"] = json!(n);
+    for (key, n) in counts {
+        if let Some(n) = n {
+            request[key] = json!(n);
+        }
     }
     let reply = conn.request(&request)?;
     let job = reply["job"]
@@ -372,30 +372,40 @@ pub fn calib_capture(args: &CalibCaptureOptions) -> u8 {
         ),
         _ => {}
     };
-    match request_calibration(
-        &args.socket,
-        &args.target,
-        args.shots,
-        args.projector_shots,
-        &mut event,
-    ) {
+    let counts = [
+        ("shots", args.shots),
+        ("projector_shots", args.projector_shots),
+        ("placements", args.placements),
+    ];
+    match request_calibration(&args.socket, &args.target, counts, &mut event) {
         Ok((bundle, summary)) => {
             if json {
                 println!("{}", json!({"bundle": bundle, "summary": summary}));
             } else {
                 println!("{}", bundle.display());
-                println!(
-                    "{} positions, {} board shots ({} with Gray codes), {} photos, {:.1} s",
-                    summary["positions"],
-                    summary["shots"],
-                    summary["graycode_shots"],
-                    summary["photos"],
-                    summary["seconds"].as_f64().unwrap_or(0.0)
-                );
-                println!(
-                    "next: matscan calib rig {} --lights-from <the current rig file>",
-                    bundle.display()
-                );
+                let seconds = summary["seconds"].as_f64().unwrap_or(0.0);
+                if summary["target"] == "sphere" {
+                    println!(
+                        "the sphere at {} places, {} photos, {seconds:.1} s",
+                        summary["shots"], summary["photos"]
+                    );
+                    println!(
+                        "next: matscan calib lights {} --rig <the rig file from calib rig>",
+                        bundle.display()
+                    );
+                } else {
+                    println!(
+                        "{} positions, {} board shots ({} with Gray codes), {} photos, {seconds:.1} s",
+                        summary["positions"],
+                        summary["shots"],
+                        summary["graycode_shots"],
+                        summary["photos"],
+                    );
+                    println!(
+                        "next: matscan calib rig {} --lights-from <the current rig file>",
+                        bundle.display()
+                    );
+                }
             }
             0
         }

@@ -42,6 +42,7 @@ use matscan_scan::raster::RgbRaster;
 use matscan_sim::calib_target::{BoardHolder, INNER_CORNERS};
 use matscan_sim::render::{CaptureSpec, RenderOptions, Renderer};
 use matscan_sim::scene::Scene;
+use matscan_sim::sphere_target::SphereHolder;
 use std::path::Path;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::mpsc::{channel, Receiver, RecvTimeoutError, Sender};
@@ -214,6 +215,7 @@ impl SimBench {
             },
             hand: SimHand {
                 holder: BoardHolder::new(&scene.rig, INNER_CORNERS, config.seed),
+                sphere: SphereHolder::new(&scene.rig, config.seed),
                 stage: stage.clone(),
             },
             positioner: SimPositioner { scene, stage },
@@ -552,9 +554,11 @@ impl Projector for SimProjector {
 }
 
 /// The simulated operator: holds a printed board up in the object's place
-/// ([`BoardHolder`] picks the poses), as a person does for a calibration.
+/// ([`BoardHolder`] picks the poses), or the light-calibration sphere
+/// ([`SphereHolder`]), as a person does for a calibration.
 pub struct SimHand {
     holder: BoardHolder,
+    sphere: SphereHolder,
     stage: Arc<Mutex<Stage>>,
 }
 
@@ -568,6 +572,11 @@ impl SimHand {
     pub fn reference_to_world(&self) -> glam::DMat4 {
         self.holder.reference_to_world()
     }
+
+    /// The light-calibration sphere's radius, metres.
+    pub fn sphere_radius(&self) -> f64 {
+        self.sphere.radius()
+    }
 }
 
 impl TargetHand for SimHand {
@@ -580,6 +589,7 @@ impl TargetHand for SimHand {
             TargetPlacement::Reference => Ok(self.holder.reference()),
             TargetPlacement::HandHeld => self.holder.hand_held(position, false),
             TargetPlacement::InProjectorView => self.holder.hand_held(position, true),
+            TargetPlacement::Sphere => self.sphere.place(position),
         }
         .map_err(|e| DriverError::InvalidSetting {
             device: HAND_ID.to_string(),
@@ -594,6 +604,8 @@ impl TargetHand for SimHand {
                     .map(ProjectorPattern::GrayCode)
                     .collect()
             }
+            // The sphere's photos show the projector's white field.
+            (TargetPlacement::Sphere, _) => vec![ProjectorPattern::Uniform(crate::Level::FULL)],
             _ => Vec::new(),
         };
         let mut stage = lock(&self.stage);

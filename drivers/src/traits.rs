@@ -391,6 +391,9 @@ pub enum TargetPlacement {
     HandHeld,
     /// Where both the camera and the projector see it whole.
     InProjectorView,
+    /// The light-calibration sphere, somewhere new in the camera's view
+    /// with the backlight panel behind it.
+    Sphere,
 }
 
 /// Places a calibration target in front of the camera without a person:

@@ -9,7 +9,7 @@ use serde::Serialize;
 
 /// Differences of `measured` from `reference`, per quantity the worst over
 /// the positions both files name.
-#[derive(Debug, Clone, Copy, Serialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, PartialEq)]
 pub struct RigDifference {
     /// |fx - fx'| / fx' and the same for fy, the larger, in percent.
     pub focal_percent: f64,
@@ -29,6 +29,9 @@ pub struct RigDifference {
     /// The projector's figures, where both files have one.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub projector: Option<ProjectorDifference>,
+    /// Per point light both files name (the flashes): the largest distance
+    /// between its two positions over the positions, in the files' units.
+    pub flashes: Vec<(String, f64)>,
 }
 
 /// The projector's differences, worst over the positions.
@@ -102,6 +105,7 @@ pub fn compare(measured: &Manifest, reference: &Manifest) -> RigDifference {
         positions: 0,
         object_px: 0.0,
         projector: None,
+        flashes: Vec::new(),
     };
     let measured_camera = measured
         .camera
@@ -118,6 +122,24 @@ pub fn compare(measured: &Manifest, reference: &Manifest) -> RigDifference {
             &matscan_scan::PinholeCamera::new(measured_camera, q.camera_to_world),
             &matscan_scan::PinholeCamera::new(reference.camera, p.camera_to_world),
         ));
+        for light in &p.lights {
+            let matscan_scan::LightKind::Point { position: want } = light.kind else {
+                continue;
+            };
+            let found = q.lights.iter().find_map(|l| match l.kind {
+                matscan_scan::LightKind::Point { position } if l.name == light.name => {
+                    Some(position)
+                }
+                _ => None,
+            });
+            if let Some(found) = found {
+                let d = (found - want).length();
+                match out.flashes.iter_mut().find(|(n, _)| *n == light.name) {
+                    Some((_, worst)) => *worst = worst.max(d),
+                    None => out.flashes.push((light.name.clone(), d)),
+                }
+            }
+        }
         if let (Some((km, tm)), Some((kr, tr))) = (projector_of(q), projector_of(p)) {
             let (focal_percent, principal_px) = intrinsics_difference(&km, &kr);
             let (dp, dr) = pose_difference(&tm, &tr);

@@ -55,6 +55,22 @@ pub enum RigcalError {
     /// A shot's Gray codes cannot be read.
     #[error("{}: Gray codes: {reason}", path.display())]
     GrayCode { path: PathBuf, reason: String },
+    /// No sphere silhouette in a light-calibration photo.
+    #[error(
+        "{}: sphere not found: {reason}",
+        path.display()
+    )]
+    SphereNotFound { path: PathBuf, reason: String },
+    /// A flash's highlight on the sphere is missing or unusable.
+    #[error("{}: {reason}", path.display())]
+    Highlight { path: PathBuf, reason: String },
+    /// A placement names a position the rig file does not have.
+    #[error(
+        "{}: position `{position}` is not in the rig file; photograph the sphere from one \
+         of its positions",
+        path.display()
+    )]
+    UnknownPosition { path: PathBuf, position: String },
     /// The shots do not determine the camera (all boards parallel, say).
     #[error("the shots do not determine the camera: {0}")]
     Degenerate(String),

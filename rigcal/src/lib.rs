@@ -34,6 +34,7 @@ pub mod camera;
 pub mod compare;
 pub mod detect;
 pub mod error;
+pub mod lights;
 pub mod model;
 pub mod projector;
 pub mod refine;

@@ -128,3 +128,79 @@ pub fn write_calibration(
     write_atomic(&path, rig.to_toml().as_bytes())?;
     Ok(Some(path))
 }
+
+/// The light calibration's report file.
+pub const LIGHTS_REPORT_FILE: &str = "lights-report.toml";
+
+/// Writes `rig` with its flashes where `lights` found them as `rig.toml`
+/// in `out_dir`, and `lights-report.toml` beside it (each atomically);
+/// `rig_path` names the rig file it came from. Returns the rig file's path.
+pub fn write_lights(
+    out_dir: &Path,
+    rig: &Manifest,
+    lights: &crate::lights::LightCalibration,
+    rig_path: &Path,
+) -> Result<PathBuf, RigcalError> {
+    #[derive(serde::Serialize)]
+    struct Flash {
+        name: String,
+        /// Camera frame, bundle units.
+        position: [f64; 3],
+        rays: usize,
+        ray_rms: f64,
+        spread_deg: f64,
+    }
+    #[derive(serde::Serialize)]
+    struct Sphere {
+        folder: PathBuf,
+        centre: [f64; 3],
+        radius_px: f64,
+        edge_points: usize,
+        edge_rms_px: f64,
+    }
+    #[derive(serde::Serialize)]
+    struct Report {
+        format: &'static str,
+        rig_from: PathBuf,
+        flash: Vec<Flash>,
+        sphere: Vec<Sphere>,
+    }
+    std::fs::create_dir_all(out_dir).map_err(|e| {
+        RigcalError::Scan(matscan_scan::ScanError::Io {
+            path: out_dir.to_path_buf(),
+            source: e,
+        })
+    })?;
+    let report = Report {
+        format: "matscan-lights-report/1",
+        rig_from: rig_path.to_path_buf(),
+        flash: lights
+            .flashes
+            .iter()
+            .map(|f| Flash {
+                name: f.name.clone(),
+                position: f.position.to_array(),
+                rays: f.rays,
+                ray_rms: f.ray_rms,
+                spread_deg: f.spread_deg,
+            })
+            .collect(),
+        sphere: lights
+            .spheres
+            .iter()
+            .map(|(folder, s)| Sphere {
+                folder: folder.clone(),
+                centre: s.centre.to_array(),
+                radius_px: s.radius_px,
+                edge_points: s.edge_points,
+                edge_rms_px: s.edge_rms_px,
+            })
+            .collect(),
+    };
+    let text = toml::to_string(&report).unwrap_or_default();
+    write_atomic(&out_dir.join(LIGHTS_REPORT_FILE), text.as_bytes())?;
+    let path = out_dir.join(RIG_FILE);
+    let moved = crate::lights::flashes_in_world(rig, lights);
+    write_atomic(&path, moved.to_toml().as_bytes())?;
+    Ok(path)
+}

@@ -27,6 +27,7 @@ pub mod capture_list;
 pub mod error;
 pub mod estimate_maps;
 pub mod image_io;
+pub mod lights_bundle;
 pub mod manifest;
 pub mod mesh;
 pub mod mesh_io;

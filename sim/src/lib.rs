@@ -28,3 +28,4 @@ pub mod calib_target;
 pub mod dataset;
 pub mod render;
 pub mod scene;
+pub mod sphere_target;

@@ -47,6 +47,11 @@ pub enum CalibAction {
     /// every position, written as a rig file with a report. Exits 2 when
     /// the calibration is refused (the report says which shots to retake).
     Rig(super::rig_calib::RigArgs),
+    /// Locate the flashes from a light-calibration bundle (a glossy
+    /// sphere's highlights, `calib capture --target sphere`) with the
+    /// camera of a rig file; writes that rig file with the flashes moved
+    /// where they were found, and a report.
+    Lights(super::rig_calib::LightsArgs),
     /// Render a calibration bundle on the simulated rig: a printed board
     /// at several poses per position, with the true rig beside it.
     Board(super::rig_calib::BoardArgs),
@@ -65,6 +70,8 @@ pub enum CalibAction {
 pub enum CalibTarget {
     /// A printed chessboard: the cameras, and the projector by Gray codes.
     Board,
+    /// A glossy sphere of known radius: the flashes' positions.
+    Sphere,
 }
 
 #[derive(Debug, Args)]
@@ -80,6 +87,10 @@ pub struct CaptureArgs {
     /// daemon's `[calibration] projector_shots`).
     #[arg(long)]
     pub projector_shots: Option<usize>,
+    /// Places of the sphere, at least 2 (default: the daemon's
+    /// `[calibration] sphere_placements`).
+    #[arg(long)]
+    pub placements: Option<usize>,
     /// The daemon's control socket.
     #[arg(long, default_value = matscan_daemon::service::config::DEFAULT_SOCKET)]
     pub socket: PathBuf,
@@ -91,6 +102,7 @@ pub struct CaptureArgs {
 fn run_capture(a: &CaptureArgs) -> Result<()> {
     let target = match a.target {
         CalibTarget::Board => "board",
+        CalibTarget::Sphere => "sphere",
     };
     let code =
         matscan_daemon::client::calib_capture(&matscan_daemon::client::CalibCaptureOptions {
@@ -98,6 +110,7 @@ fn run_capture(a: &CaptureArgs) -> Result<()> {
             target: target.to_string(),
             shots: a.shots,
             projector_shots: a.projector_shots,
+            placements: a.placements,
             json: a.json,
         });
     match code {
@@ -118,6 +131,7 @@ pub fn run(a: CalibArgs) -> Result<()> {
         }
         (Some(CalibAction::Capture(c)), _) => run_capture(&c),
         (Some(CalibAction::Rig(r)), _) => super::rig_calib::run_rig(r),
+        (Some(CalibAction::Lights(l)), _) => super::rig_calib::run_lights(l),
         (Some(CalibAction::Board(b)), _) => super::rig_calib::run_board(b),
         (
             Some(CalibAction::Compare {

@@ -5,11 +5,14 @@
 use anyhow::{Context, Result};
 use clap::Args;
 use matscan_rigcal::compare::compare;
+use matscan_rigcal::lights::calibrate_lights;
 use matscan_rigcal::projector::calibrate_projector;
 use matscan_rigcal::sheet::write_contact_sheet;
+use matscan_rigcal::write::write_lights;
 use matscan_rigcal::write::{write_calibration, REPORT_FILE};
 use matscan_rigcal::{calibrate_camera, Acceptance};
 use matscan_scan::calib_bundle::CalibManifest;
+use matscan_scan::lights_bundle::LightsManifest;
 use matscan_scan::Manifest;
 use matscan_sim::calib_target::{write_board_bundle, BoardBundleOptions, TRUTH_RIG};
 use std::path::{Path, PathBuf};
@@ -209,5 +212,63 @@ pub fn run_compare(measured: &Path, reference: &Path) -> Result<()> {
         ),
         None => println!("projector: not in both files"),
     }
+    for (name, d) in &d.flashes {
+        println!("{name}: position {:.3} mm (worst)", 1000.0 * d);
+    }
+    Ok(())
+}
+
+#[derive(Debug, Args)]
+pub struct LightsArgs {
+    /// The light-calibration bundle folder (`lights.toml` and the sphere's
+    /// photos).
+    pub bundle: PathBuf,
+    /// The rig file whose camera took the photos (as `calib rig` wrote
+    /// it); its flashes are replaced by the ones measured.
+    #[arg(long)]
+    pub rig: PathBuf,
+    /// Output folder for `rig.toml` and `lights-report.toml` (default:
+    /// BUNDLE/result).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+/// Runs `matscan calib lights`.
+pub fn run_lights(a: LightsArgs) -> Result<()> {
+    let manifest = LightsManifest::read(&a.bundle)
+        .with_context(|| format!("reading light-calibration bundle {}", a.bundle.display()))?;
+    let (rig, _) = Manifest::read_rig(&a.rig)
+        .with_context(|| format!("reading rig file {}", a.rig.display()))?;
+    let t = Instant::now();
+    let lights = calibrate_lights(&a.bundle, &manifest, &rig)
+        .with_context(|| format!("locating the flashes from {}", a.bundle.display()))?;
+    let seconds = t.elapsed().as_secs_f64();
+    let out = a.out.unwrap_or_else(|| a.bundle.join("result"));
+    let written = write_lights(&out, &rig, &lights, &a.rig)
+        .with_context(|| format!("writing the lights to {}", out.display()))?;
+    for (folder, s) in &lights.spheres {
+        println!(
+            "  {}: sphere at {:.1} mm, radius {:.1} px, outline RMS {:.3} px ({} edge points)",
+            folder.display(),
+            1000.0 * s.centre.length(),
+            s.radius_px,
+            s.edge_rms_px,
+            s.edge_points
+        );
+    }
+    for f in &lights.flashes {
+        println!(
+            "{}: {:.1} {:.1} {:.1} mm from the camera, {} rays {:.2} mm apart (RMS), spread \
+             {:.1} deg",
+            f.name,
+            1000.0 * f.position.x,
+            1000.0 * f.position.y,
+            1000.0 * f.position.z,
+            f.rays,
+            1000.0 * f.ray_rms,
+            f.spread_deg
+        );
+    }
+    println!("{seconds:.2} s; wrote {}", written.display());
     Ok(())
 }

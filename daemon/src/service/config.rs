@@ -5,7 +5,7 @@
 //!
 //! Boundaries: reads text; opens no device and no socket.
 
-use super::sequencer::{BoardPlan, CalibrationTarget};
+use super::sequencer::{BoardPlan, CalibrationTarget, SpherePlan};
 use matscan_drivers::projector::kms::{Gamma, ModeRequest};
 use matscan_drivers::usb::UsbId;
 use matscan_scan::Param;
@@ -76,6 +76,11 @@ pub struct CalibrationSettings {
     pub projector_shots: usize,
     /// Positions to photograph when the rig has no calibration file yet.
     pub positions: usize,
+    /// The light-calibration sphere's radius, metres (`sphere_radius`);
+    /// `None` when not set. The simulated rig's operator holds its own.
+    pub sphere_radius: Option<f64>,
+    /// Places to photograph the sphere at.
+    pub sphere_placements: usize,
 }
 
 impl Default for CalibrationSettings {
@@ -85,6 +90,8 @@ impl Default for CalibrationSettings {
             shots: 8,
             projector_shots: 6,
             positions: 1,
+            sphere_radius: None,
+            sphere_placements: 6,
         }
     }
 }
@@ -402,6 +409,8 @@ struct RawCalibration {
     shots: Option<usize>,
     projector_shots: Option<usize>,
     positions: Option<usize>,
+    sphere_radius: Option<f64>,
+    sphere_placements: Option<usize>,
 }
 
 #[derive(Debug, Default, Deserialize)]
@@ -710,11 +719,31 @@ fn calibration(
             "expected at least 1 rig position".into(),
         ));
     }
+    if let Some(r) = raw.sphere_radius {
+        if !(r.is_finite() && r > 0.0 && r < 1.0) {
+            return Err(invalid(
+                "calibration.sphere_radius",
+                format!("{r}: expected the sphere's radius in metres (0 to 1)"),
+            ));
+        }
+    }
+    let sphere_placements = raw.sphere_placements.unwrap_or(defaults.sphere_placements);
+    if SpherePlan::new(sphere_placements).is_none() {
+        return Err(invalid(
+            "calibration.sphere_placements",
+            format!(
+                "{sphere_placements}: expected 2 to {} places",
+                BoardPlan::MAX_SHOTS
+            ),
+        ));
+    }
     Ok(CalibrationSettings {
         target,
         shots,
         projector_shots,
         positions,
+        sphere_radius: raw.sphere_radius,
+        sphere_placements,
     })
 }
 
@@ -1116,6 +1145,14 @@ mod tests {
             (
                 "rig = \"simulated\"\n[calibration]\nshots = 0",
                 "`calibration.shots`: shots = 0",
+            ),
+            (
+                "rig = \"simulated\"\n[calibration]\nsphere_radius = 0",
+                "`calibration.sphere_radius`: 0: expected the sphere's radius",
+            ),
+            (
+                "rig = \"simulated\"\n[calibration]\nsphere_placements = 1",
+                "`calibration.sphere_placements`: 1: expected 2 to 64",
             ),
         ];
         for (text, want) in cases {

@@ -271,6 +271,7 @@ fn assemble(
         mesh_source: Some(config.mesh.clone()),
         calibration_target: None,
         hand: None,
+        sphere_radius: None,
     })
 }
 
@@ -520,6 +521,7 @@ mod tests {
             mesh_source: None,
             calibration_target: None,
             hand: None,
+            sphere_radius: None,
         }
     }
 

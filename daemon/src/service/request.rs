@@ -6,7 +6,7 @@
 //! Boundaries: bookkeeping on [`Shared`]; no I/O.
 
 use super::config::{BusyPolicy, Config};
-use super::sequencer::BoardPlan;
+use super::sequencer::{BoardPlan, CalibrationPlan, SpherePlan};
 use super::state::{Shared, State};
 use serde_json::{json, Value};
 
@@ -69,39 +69,69 @@ pub fn request_capture(
     .unwrap_or_else(|refused| refused)
 }
 
-/// Queues a calibration capture of `target` (`board`, the only target this
-/// version photographs) with `shots` board poses per position and
-/// `projector_shots` Gray-code poses (the configuration's counts where
-/// `None`), or refuses it like any capture.
+/// Queues a calibration capture of `target`: `board` (a printed
+/// chessboard) with `shots` poses per position and `projector_shots`
+/// Gray-code poses, or `sphere` (the glossy sphere that locates the
+/// flashes) at `placements` places; the configuration's counts where
+/// `None`. Refused like any capture.
 pub fn request_calibration(
     shared: &Shared,
     config: &Config,
     target: &str,
-    shots: Option<usize>,
-    projector_shots: Option<usize>,
+    counts: CalibrationCounts,
 ) -> Value {
-    if target != "board" {
-        return refusal(
-            code::UNKNOWN_TARGET,
-            format!("no calibration target `{target}`: expected \"board\" (a printed chessboard)"),
-        );
-    }
-    let shots = shots.unwrap_or(config.calibration.shots);
-    let projector_shots = projector_shots.unwrap_or(config.calibration.projector_shots);
-    let Some(plan) = BoardPlan::new(shots, projector_shots) else {
-        return refusal(
-            code::BAD_REQUEST,
-            format!(
-                "shots = {shots}, projector_shots = {projector_shots}: expected 1 to {max} board \
-                 poses per position and at most {max} for the projector",
-                max = BoardPlan::MAX_SHOTS
-            ),
-        );
+    let c = &config.calibration;
+    let plan = match target {
+        "board" => {
+            let shots = counts.shots.unwrap_or(c.shots);
+            let projector_shots = counts.projector_shots.unwrap_or(c.projector_shots);
+            BoardPlan::new(shots, projector_shots)
+                .map(CalibrationPlan::Board)
+                .ok_or_else(|| {
+                    format!(
+                    "shots = {shots}, projector_shots = {projector_shots}: expected 1 to {max} \
+                     board poses per position and at most {max} for the projector",
+                    max = BoardPlan::MAX_SHOTS
+                )
+                })
+        }
+        "sphere" => {
+            let placements = counts.placements.unwrap_or(c.sphere_placements);
+            SpherePlan::new(placements)
+                .map(CalibrationPlan::Sphere)
+                .ok_or_else(|| {
+                    format!(
+                        "placements = {placements}: expected 2 to {} places of the sphere",
+                        BoardPlan::MAX_SHOTS
+                    )
+                })
+        }
+        other => {
+            return refusal(
+                code::UNKNOWN_TARGET,
+                format!(
+                    "no calibration target `{other}`: expected \"board\" (a printed \
+                     chessboard) or \"sphere\" (a glossy sphere)"
+                ),
+            )
+        }
+    };
+    let plan = match plan {
+        Ok(p) => p,
+        Err(e) => return refusal(code::BAD_REQUEST, e),
     };
     admit(shared, config, Source::Socket, |s| {
         s.enqueue_calibration(plan, Source::Socket.name())
     })
     .unwrap_or_else(|refused| refused)
+}
+
+/// The counts a calibration request may give.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct CalibrationCounts {
+    pub shots: Option<usize>,
+    pub projector_shots: Option<usize>,
+    pub placements: Option<usize>,
 }
 
 /// Queues a job with `enqueue` unless the daemon is stopping or the busy

@@ -106,8 +106,10 @@ fn open_simulated(c: &SimulatedRigConfig) -> Result<RigDevices, HardwareError> {
         board: *rig.hand.board(),
         reference_to_world: rig.hand.reference_to_world(),
     });
+    let sphere_radius = Some(rig.hand.sphere_radius());
     Ok(RigDevices {
         calibration_target,
+        sphere_radius,
         hand: Some(Box::new(rig.hand)),
         camera: Box::new(rig.camera),
         lights: Box::new(rig.lights),

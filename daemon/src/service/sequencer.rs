@@ -96,6 +96,9 @@ pub struct RigDevices {
     /// Places the board without a person (the simulated rig); `None`: the
     /// operator is prompted and presses the footswitch.
     pub hand: Option<Box<dyn TargetHand>>,
+    /// The light-calibration sphere's radius, metres; `None`: not
+    /// configured, and a sphere capture says so.
+    pub sphere_radius: Option<f64>,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -140,6 +143,16 @@ pub enum CaptureError {
          and rows) and square (its edge, metres) in the daemon's configuration"
     )]
     NoCalibrationTarget,
+    #[error(
+        "no light-calibration sphere is configured: set [calibration] sphere_radius (the \
+         glossy sphere's radius, metres) in the daemon's configuration"
+    )]
+    NoSphere,
+    #[error(
+        "{device}: a flash's highlight on the sphere clips at position {position} even at \
+         1/4096 of the exposure; lower the flashes' power"
+    )]
+    HighlightClipped { device: String, position: String },
     #[error("{device}: cannot calibrate the projector: {reason}")]
     CannotShowGrayCode { device: String, reason: String },
 }
@@ -652,7 +665,9 @@ pub fn mean_abs_difference(a: &RgbRaster, b: &RgbRaster) -> f32 {
 }
 
 pub mod calibration;
-pub use calibration::{BoardPlan, CalibrationOutcome, CalibrationTarget};
+pub use calibration::{
+    BoardPlan, CalibrationOutcome, CalibrationPlan, CalibrationTarget, SpherePlan,
+};
 
 #[cfg(test)]
 mod tests;

@@ -10,7 +10,7 @@ use super::config::Config;
 use super::notify::Notifier;
 use super::plan::plan;
 use super::request::{request_capture, Source};
-use super::sequencer::{BoardPlan, CaptureError, Progress, RigDevices, RunSettings};
+use super::sequencer::{CalibrationPlan, CaptureError, Progress, RigDevices, RunSettings};
 use super::state::{JobStage, Shared};
 use super::worker::{EstimateOutcome, Job, Processed, Worker};
 use matscan_drivers::Press;
@@ -535,7 +535,7 @@ fn run_calibration(
     shared: &Shared,
     rig: &mut Option<RigDevices>,
     id: u64,
-    plan: BoardPlan,
+    plan: CalibrationPlan,
 ) -> Result<(PathBuf, serde_json::Value, usize), String> {
     *rig = None;
     tracing::info!(
@@ -546,6 +546,9 @@ fn run_calibration(
         .map_err(|e| format!("opening the rig: {e}"))?;
     if r.calibration_target.is_none() {
         r.calibration_target = config.calibration.target.clone();
+    }
+    if r.sphere_radius.is_none() {
+        r.sphere_radius = config.calibration.sphere_radius;
     }
     let target = next_calibration_path(&config.scans).map_err(|e| e.to_string())?;
     shared.update(|s| s.event(id, json!({"event": "started", "job": id, "bundle": target})));
@@ -570,23 +573,28 @@ fn run_calibration(
             )
         })
     };
-    let outcome = r
-        .capture_calibration(
-            plan,
+    let stop = || {
+        shared.beat();
+        shared.cancel.load(Ordering::SeqCst)
+    };
+    let outcome = match plan {
+        CalibrationPlan::Board(board) => {
+            r.capture_calibration(board, &target, &settings, &stop, &mut prompt, &mut progress)
+        }
+        CalibrationPlan::Sphere(sphere) => r.capture_sphere(
+            sphere,
             &target,
+            &stop,
             &settings,
-            &|| {
-                shared.beat();
-                shared.cancel.load(Ordering::SeqCst)
-            },
             &mut prompt,
             &mut progress,
-        )
-        .map_err(|e| e.to_string())?;
+        ),
+    }
+    .map_err(|e| e.to_string())?;
     Ok((
         outcome.bundle.clone(),
         json!({
-            "target": "board",
+            "target": plan.target(),
             "positions": outcome.positions,
             "shots": outcome.shots,
             "graycode_shots": outcome.graycode_shots,

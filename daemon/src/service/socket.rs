@@ -1,7 +1,8 @@
 //! The control socket's protocol (documented in `docs/daemon-protocol.md`):
 //! one JSON object per line each way. Requests: `{"cmd":"capture",
 //! "profile":P}` (profile optional), `{"cmd":"calib_capture",
-//! "target":"board","shots":N,"projector_shots":M}` (counts optional),
+//! "target":"board","shots":N,"projector_shots":M}` or `{"cmd":
+//! "calib_capture","target":"sphere","placements":N}` (counts optional),
 //! `{"cmd":"status"}`, `{"cmd":"watch","job":N}`; `watch` streams the job's
 //! events until it has failed or is done (a scan: the worker is done with
 //! it, `finished`). A connection may send several requests in turn.
@@ -27,6 +28,7 @@ pub enum Request {
         target: String,
         shots: Option<usize>,
         projector_shots: Option<usize>,
+        placements: Option<usize>,
     },
     Status,
     Watch {
@@ -35,7 +37,7 @@ pub enum Request {
 }
 
 pub use super::request::code;
-use super::request::{refusal, request_calibration, request_capture, Source};
+use super::request::{refusal, request_calibration, request_capture, CalibrationCounts, Source};
 
 /// Serves one connection until the peer closes it.
 pub fn serve_connection(stream: UnixStream, shared: &Shared, config: &Config) {
@@ -66,9 +68,19 @@ pub fn serve_connection(stream: UnixStream, shared: &Shared, config: &Config) {
                 target,
                 shots,
                 projector_shots,
+                placements,
             }) => send(
                 &mut writer,
-                &request_calibration(shared, config, &target, shots, projector_shots),
+                &request_calibration(
+                    shared,
+                    config,
+                    &target,
+                    CalibrationCounts {
+                        shots,
+                        projector_shots,
+                        placements,
+                    },
+                ),
             ),
             Ok(Request::Watch { job }) => watch(&mut writer, shared, job),
         };

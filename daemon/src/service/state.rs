@@ -5,7 +5,7 @@
 //!
 //! Boundaries: bookkeeping only; no device, file or socket I/O.
 
-use super::sequencer::BoardPlan;
+use super::sequencer::CalibrationPlan;
 use super::worker::{EstimateOutcome, Verdict};
 use serde_json::{json, Value};
 use std::collections::{BTreeMap, VecDeque};
@@ -32,9 +32,9 @@ pub struct JobRecord {
     pub id: u64,
     /// The capture profile; `calibration` for a calibration capture.
     pub profile: String,
-    /// `Some` for a calibration capture (`matscan calib capture`): the
-    /// board poses to photograph. Its bundle goes to no estimator.
-    pub calibration: Option<BoardPlan>,
+    /// `Some` for a calibration capture (`matscan calib capture`): what to
+    /// photograph. Its bundle goes to no estimator.
+    pub calibration: Option<CalibrationPlan>,
     /// Who asked for it: `socket` or `footswitch`.
     pub source: String,
     pub stage: JobStage,
@@ -120,14 +120,9 @@ impl State {
 
     /// Records a new queued calibration capture of `plan`, asked for by
     /// `source`, and returns its id.
-    pub fn enqueue_calibration(&mut self, plan: BoardPlan, source: &str) -> u64 {
+    pub fn enqueue_calibration(&mut self, plan: CalibrationPlan, source: &str) -> u64 {
         let id = self.insert_job(CALIBRATION_PROFILE, source, JobStage::Queued, |id| {
-            json!({
-                "event": "queued",
-                "job": id,
-                "calibration": {"target": "board", "shots": plan.shots, "projector_shots": plan.projector_shots},
-                "source": source,
-            })
+            json!({"event": "queued", "job": id, "calibration": plan.to_json(), "source": source})
         });
         if let Some(job) = self.jobs.get_mut(&id) {
             job.calibration = Some(plan);

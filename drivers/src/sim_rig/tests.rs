@@ -311,3 +311,35 @@ fn the_operator_holds_a_board_in_the_objects_place_and_takes_it_away() {
     let err = rig.hand.place(7, TargetPlacement::HandHeld).unwrap_err();
     assert!(err.to_string().contains(HAND_ID), "{err}");
 }
+
+#[test]
+fn the_operator_holds_the_sphere_before_the_backlight_and_its_photos_show_the_projector() {
+    let config = SimConfig {
+        width: 48,
+        height: 48,
+        ..config(SimFaults::default())
+    };
+    let mut rig = SimulatedRig::new(scene(), config).unwrap();
+    assert!(rig.hand.sphere_radius() > 0.0);
+    rig.hand.place(0, TargetPlacement::Sphere).unwrap();
+    rig.lights.on(LightId::Backlight, Level::FULL).unwrap();
+    let backlit = rig.camera.capture().unwrap().rgb;
+    rig.lights.off(LightId::Backlight).unwrap();
+    let ambient = rig.camera.capture().unwrap().rgb;
+    // The panel lights most of the photo; the sphere before it stays dark.
+    let lit = backlit
+        .data
+        .iter()
+        .zip(&ambient.data)
+        .filter(|(b, a)| b[1] - a[1] > 0.01)
+        .count();
+    let total = backlit.data.len();
+    assert!(lit > total / 2 && lit < total, "{lit} of {total} lit");
+    // The projector's white field was rendered with the place's first pass.
+    let cached = rig.camera.cache.as_ref().unwrap().emitters.len();
+    rig.projector
+        .show(ProjectorPattern::Uniform(Level::FULL))
+        .unwrap();
+    rig.camera.capture().unwrap();
+    assert_eq!(rig.camera.cache.as_ref().unwrap().emitters.len(), cached);
+}

@@ -13,7 +13,14 @@
 //! footswitch, as between a scan's positions; the simulated rig's
 //! operator ([`matscan_drivers::TargetHand`]) places the board itself.
 //!
-//! The bundle is built in a hidden temporary folder and renamed into place
+//! The light calibration ([`RigDevices::capture_sphere`]) photographs a
+//! glossy sphere of known radius at several places before the first
+//! position's camera, each place under every light alone (ambient, the
+//! backlight for its silhouette, each flash for its highlight), and
+//! publishes a `matscan-lights/1` bundle: the flashes ride with the camera,
+//! so one position's photos locate them at all.
+//!
+//! Each bundle is built in a hidden temporary folder and renamed into place
 //! only when complete, so an error or a cancellation leaves nothing that
 //! looks like a calibration.
 
@@ -26,6 +33,10 @@ use matscan_scan::calib_bundle::{
     graycode_file, CalibManifest, CalibPosition, Chessboard, ProjectorSize, Shot, CALIB_MANIFEST,
 };
 use matscan_scan::image_io::write_rgb_exr;
+use matscan_scan::lights_bundle::{
+    light_photo, LightsManifest, Placement, AMBIENT_PHOTO, BACKLIGHT_PHOTO, CLIPPED_LEVEL, FLASHES,
+    LIGHTS_MANIFEST, PROJECTOR_PHOTO,
+};
 use matscan_scan::raster::RgbRaster;
 use matscan_scan::Precision;
 use std::path::{Path, PathBuf};
@@ -65,13 +76,61 @@ impl BoardPlan {
     }
 }
 
+/// How many places a light calibration photographs the sphere at.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SpherePlan {
+    pub placements: usize,
+}
+
+impl SpherePlan {
+    /// `None` unless there are 2 to [`BoardPlan::MAX_SHOTS`] places: a flash
+    /// is where the rays of two or more places meet.
+    pub fn new(placements: usize) -> Option<SpherePlan> {
+        (2..=BoardPlan::MAX_SHOTS)
+            .contains(&placements)
+            .then_some(SpherePlan { placements })
+    }
+}
+
+/// What a calibration capture photographs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CalibrationPlan {
+    /// The printed board: the cameras, and the projector by Gray codes.
+    Board(BoardPlan),
+    /// The glossy sphere: the flashes.
+    Sphere(SpherePlan),
+}
+
+impl CalibrationPlan {
+    /// The target's name in requests and events.
+    pub fn target(&self) -> &'static str {
+        match self {
+            CalibrationPlan::Board(_) => "board",
+            CalibrationPlan::Sphere(_) => "sphere",
+        }
+    }
+
+    /// The plan as events show it.
+    pub fn to_json(&self) -> serde_json::Value {
+        match self {
+            CalibrationPlan::Board(b) => serde_json::json!({
+                "target": "board", "shots": b.shots, "projector_shots": b.projector_shots,
+            }),
+            CalibrationPlan::Sphere(s) => serde_json::json!({
+                "target": "sphere", "placements": s.placements,
+            }),
+        }
+    }
+}
+
 /// What a finished calibration capture produced.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CalibrationOutcome {
     /// The published bundle.
     pub bundle: PathBuf,
     pub positions: usize,
-    /// Board photos (the Gray-code poses' flash photos included).
+    /// Board photos (the Gray-code poses' flash photos included), or the
+    /// sphere's places.
     pub shots: usize,
     pub graycode_shots: usize,
     /// Every photo taken.
@@ -279,6 +338,184 @@ impl RigDevices {
             photos: total,
             seconds: start.elapsed().as_secs_f64(),
         })
+    }
+
+    /// Photographs the sphere at `plan`'s places before the first
+    /// position's camera and publishes the light-calibration bundle at
+    /// `target` (which must not exist); as [`RigDevices::capture_calibration`].
+    pub fn capture_sphere(
+        &mut self,
+        plan: SpherePlan,
+        target: &Path,
+        stop: &dyn Fn() -> bool,
+        settings: &RunSettings,
+        prompt: &mut dyn FnMut(&str),
+        progress: &mut dyn FnMut(Progress),
+    ) -> Result<CalibrationOutcome, CaptureError> {
+        let result = self.sphere_inner(plan, target, stop, settings, prompt, progress);
+        if let Some(hand) = self.hand.as_mut() {
+            hand.remove();
+        }
+        if let Err(e) = self.lights.all_off() {
+            tracing::warn!("switching the lights off after the calibration: {e}");
+        }
+        result
+    }
+
+    fn sphere_inner(
+        &mut self,
+        plan: SpherePlan,
+        target: &Path,
+        stop: &dyn Fn() -> bool,
+        settings: &RunSettings,
+        prompt: &mut dyn FnMut(&str),
+        progress: &mut dyn FnMut(Progress),
+    ) -> Result<CalibrationOutcome, CaptureError> {
+        let start = Instant::now();
+        let radius = self.sphere_radius.ok_or(CaptureError::NoSphere)?;
+        let Some(geometry) = self.geometry.positions.first().cloned() else {
+            return Err(CaptureError::CannotMove { positions: 0 });
+        };
+        let lights: Vec<LightId> = [LightId::Backlight]
+            .into_iter()
+            .chain(FLASHES.iter().filter_map(|f| LightId::from_name(f)))
+            .collect();
+        // The projector's highlight centres the sphere (its pose is
+        // calibrated by the board): photographed where it can show white.
+        let with_projector = self
+            .projector
+            .as_ref()
+            .is_some_and(|p| p.can_show(&ProjectorPattern::Uniform(Level::FULL)));
+        let total = plan.placements * (1 + lights.len() + usize::from(with_projector));
+        let pending = PendingDir::create(target)?;
+        self.lights.all_off()?;
+        if let Some(projector) = self.projector.as_mut() {
+            projector.show(ProjectorPattern::Black)?;
+        }
+        self.home()?;
+        let exposure = CameraSettings::new(geometry.exposure_s, 1.0, 5000).ok_or_else(|| {
+            CaptureError::BadExposure {
+                position: geometry.name.clone(),
+                exposure_s: geometry.exposure_s,
+            }
+        })?;
+        self.camera.lock(exposure)?;
+        let mut placements = Vec::new();
+        let mut done = 0;
+        for k in 0..plan.placements {
+            let task = format!(
+                "hold the sphere somewhere new before the camera at {} (place {} of {}), \
+                 the backlight panel behind it, nearer and farther, left and right",
+                geometry.name,
+                k + 1,
+                plan.placements
+            );
+            self.present(0, TargetPlacement::Sphere, &task, settings, stop, prompt)?;
+            let folder = PathBuf::from(&geometry.name).join(format!("sphere-{k:02}"));
+            create_dir(&pending.path().join(&folder))?;
+            // One exposure for the place's photos, short enough that no
+            // flash's highlight clips: a glossy sphere mirrors a flash far
+            // brighter than anything the scans see.
+            let mut scale = 1.0f32;
+            let flashes = loop {
+                let exposure = CameraSettings::new(geometry.exposure_s * scale, 1.0, 5000)
+                    .ok_or_else(|| CaptureError::BadExposure {
+                        position: geometry.name.clone(),
+                        exposure_s: geometry.exposure_s * scale,
+                    })?;
+                self.camera.lock(exposure)?;
+                let mut frames = Vec::new();
+                for &l in lights.iter().filter(|&&l| l != LightId::Backlight) {
+                    frames.push((light_photo(l.name()), self.photo_with(l, stop)?));
+                }
+                if with_projector {
+                    let full = ProjectorPattern::Uniform(Level::FULL);
+                    frames.push((PROJECTOR_PHOTO.to_string(), self.with_projector(full)?));
+                }
+                let clipped = frames
+                    .iter()
+                    .any(|(_, f)| f.data.iter().any(|p| p.iter().any(|&v| v >= CLIPPED_LEVEL)));
+                if !clipped {
+                    break frames;
+                }
+                if scale < 1.0 / 4096.0 {
+                    return Err(CaptureError::HighlightClipped {
+                        device: self.camera.id().to_string(),
+                        position: geometry.name.clone(),
+                    });
+                }
+                scale *= 0.25;
+            };
+            let ambient = {
+                self.camera.scene_changed(monotonic_now());
+                self.camera.capture()?.rgb
+            };
+            let backlit = self.photo_with(LightId::Backlight, stop)?;
+            let shots = [
+                (AMBIENT_PHOTO.to_string(), ambient),
+                (BACKLIGHT_PHOTO.to_string(), backlit),
+            ]
+            .into_iter()
+            .chain(flashes);
+            for (file, rgb) in shots {
+                let name = folder.join(&file);
+                self.write_photo(pending.path(), &name, &rgb)?;
+                done += 1;
+                progress(Progress {
+                    done,
+                    total,
+                    what: name.display().to_string(),
+                });
+            }
+            placements.push(Placement {
+                position: geometry.name.clone(),
+                folder,
+            });
+        }
+        if let Some(hand) = self.hand.as_mut() {
+            hand.remove();
+        }
+        let manifest = LightsManifest {
+            units: "m".into(),
+            radius,
+            placements,
+        };
+        write_atomic(
+            &pending.path().join(LIGHTS_MANIFEST),
+            manifest.to_toml().as_bytes(),
+        )?;
+        if let Some(rig) = self.truth.as_ref().and_then(|t| t.rig()) {
+            write_atomic(
+                &pending.path().join(matscan_sim::calib_target::TRUTH_RIG),
+                rig.to_toml().as_bytes(),
+            )?;
+        }
+        let bundle = pending.publish()?;
+        Ok(CalibrationOutcome {
+            bundle,
+            positions: 1,
+            shots: plan.placements,
+            graycode_shots: 0,
+            photos: total,
+            seconds: start.elapsed().as_secs_f64(),
+        })
+    }
+
+    /// One photo with `light` alone at full power.
+    fn photo_with(
+        &mut self,
+        light: LightId,
+        stop: &dyn Fn() -> bool,
+    ) -> Result<RgbRaster, CaptureError> {
+        if stop() {
+            return Err(CaptureError::Cancelled);
+        }
+        self.lights.on(light, Level::FULL)?;
+        self.camera.scene_changed(monotonic_now());
+        let frame = self.camera.capture();
+        self.lights.off(light)?;
+        self.camera.scene_changed(monotonic_now());
+        Ok(frame?.rgb)
     }
 
     /// The Gray-code images each projector pose needs; an error when the

@@ -188,6 +188,7 @@ fn hand_turned_rig() -> (
         mesh_source: None,
         calibration_target: None,
         hand: None,
+        sphere_radius: None,
     };
     (rig, sim_rig.positioner, button)
 }
@@ -384,4 +385,24 @@ fn a_calibration_without_a_board_or_a_projector_says_what_is_missing_and_writes_
     let err = run(&mut rig, BoardPlan::new(3, 2).unwrap()).unwrap_err();
     assert!(err.to_string().contains("no projector"), "{err}");
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+}
+
+#[test]
+fn a_sphere_capture_without_a_sphere_radius_says_so_and_writes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let (mut rig, _turntable, _button) = hand_turned_rig();
+    let err = rig
+        .capture_sphere(
+            SpherePlan::new(3).unwrap(),
+            &dir.path().join("calib-0001"),
+            &|| false,
+            &settings(),
+            &mut |_| {},
+            &mut |_| {},
+        )
+        .unwrap_err();
+    assert!(matches!(err, CaptureError::NoSphere), "{err}");
+    assert!(err.to_string().contains("sphere_radius"), "{err}");
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+    assert!(SpherePlan::new(1).is_none(), "one place fixes no flash");
 }
