@@ -75,7 +75,7 @@ impl Default for BoardBundleOptions {
             height: 1024,
             positions: 3,
             shots_per_position: 8,
-            projector_shots: 6,
+            projector_shots: 12,
             inner_corners: INNER_CORNERS,
             distortion: [-0.08, 0.05, 0.0005, -0.0003, 0.0],
             seed: 1,

@@ -49,7 +49,7 @@ pub struct BoardArgs {
     #[arg(long, default_value_t = 8)]
     pub shots: usize,
     /// Gray-code shots for the projector, at the first position.
-    #[arg(long, default_value_t = 6)]
+    #[arg(long, default_value_t = 12)]
     pub projector_shots: usize,
     #[arg(long, default_value_t = 1)]
     pub seed: u64,

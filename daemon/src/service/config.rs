@@ -88,7 +88,7 @@ impl Default for CalibrationSettings {
         CalibrationSettings {
             target: None,
             shots: 8,
-            projector_shots: 6,
+            projector_shots: 12,
             positions: 1,
             sphere_radius: None,
             sphere_placements: 6,
