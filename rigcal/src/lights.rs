@@ -35,6 +35,10 @@ use matscan_scan::raster::RgbRaster;
 use matscan_scan::{Intrinsics, Manifest};
 use std::path::Path;
 
+/// How far, in sphere radii, the projector's highlight may put the centre
+/// from the outline's: the rim's pull is a fraction of a pixel, a
+/// highlight that lands farther is a stray reflection.
+const MIRROR_AGREEMENT: f64 = 0.03;
 /// Fewest sub-pixel edge points that make a silhouette.
 const MIN_EDGE_POINTS: usize = 24;
 
@@ -338,28 +342,41 @@ pub fn find_highlight(
         });
     }
     let threshold = 0.25 * peak.0;
-    let (px, py) = (peak.1, peak.2);
+    // The highlight: the pixels above the threshold connected to the peak,
+    // however wide the lobe spreads them.
+    let mut seen = std::collections::HashSet::new();
+    let mut stack = vec![(peak.1, peak.2)];
+    seen.insert((peak.1, peak.2));
     let mut sum = DVec2::ZERO;
     let mut weight = 0.0;
-    let reach = 6;
-    for y in (py - reach).max(0)..(py + reach + 1).min(h) {
-        for x in (px - reach).max(0)..(px + reach + 1).min(w) {
-            let (v, clipped) = at(x, y);
-            if v <= threshold {
-                continue;
+    while let Some((x, y)) = stack.pop() {
+        let (v, clipped) = at(x, y);
+        if clipped {
+            return Err(RigcalError::Highlight {
+                path: path.to_path_buf(),
+                reason: format!(
+                    "the highlight is clipped at pixel ({x}, {y}); lower the exposure or the \
+                     flash's power"
+                ),
+            });
+        }
+        let excess = f64::from(v - threshold);
+        sum += excess * DVec2::new(x as f64 + 0.5, y as f64 + 0.5);
+        weight += excess;
+        for (nx, ny) in [(x + 1, y), (x - 1, y), (x, y + 1), (x, y - 1)] {
+            let inside_disc =
+                DVec2::new(nx as f64 + 0.5 - cx, ny as f64 + 0.5 - cy).length() <= inside;
+            if nx >= 0
+                && ny >= 0
+                && nx < w
+                && ny < h
+                && inside_disc
+                && !seen.contains(&(nx, ny))
+                && at(nx, ny).0 > threshold
+            {
+                seen.insert((nx, ny));
+                stack.push((nx, ny));
             }
-            if clipped {
-                return Err(RigcalError::Highlight {
-                    path: path.to_path_buf(),
-                    reason: format!(
-                        "the highlight is clipped at pixel ({x}, {y}); lower the exposure or \
-                         the flash's power"
-                    ),
-                });
-            }
-            let excess = f64::from(v - threshold);
-            sum += excess * DVec2::new(x as f64 + 0.5, y as f64 + 0.5);
-            weight += excess;
         }
     }
     Ok(sum / weight.max(f64::MIN_POSITIVE))
@@ -490,14 +507,20 @@ pub fn calibrate_lights(
         ) {
             let photo = read_shot(&projector_path)?;
             check_size(&photo, &camera, &projector_path)?;
-            let pixel = find_highlight(&photo, &ambient, &sphere, &projector_path)?;
-            if let Some(centre) =
-                centre_from_mirror(&camera, &sphere, manifest.radius, pixel, light)
-            {
+            // A place outside the projector's image has no highlight of it,
+            // or a stray one: its outline's centre stands.
+            let mirrored = find_highlight(&photo, &ambient, &sphere, &projector_path)
+                .ok()
+                .and_then(|pixel| {
+                    centre_from_mirror(&camera, &sphere, manifest.radius, pixel, light)
+                })
+                .and_then(|c| Some((c, camera.project_camera_point(c)?)))
+                .filter(|(_, px)| {
+                    (*px - sphere.centre_px).length() <= MIRROR_AGREEMENT * sphere.radius_px
+                });
+            if let Some((centre, centre_px)) = mirrored {
                 sphere.centre = centre;
-                sphere.centre_px = camera
-                    .project_camera_point(centre)
-                    .unwrap_or(sphere.centre_px);
+                sphere.centre_px = centre_px;
                 sphere.centred_by_projector = true;
             }
         }

@@ -157,6 +157,9 @@ pub fn write_lights(
         radius_px: f64,
         edge_points: usize,
         edge_rms_px: f64,
+        /// `projector`: moved to where the projector's highlight puts it;
+        /// `outline`: the silhouette's.
+        centred_by: &'static str,
     }
     #[derive(serde::Serialize)]
     struct Report {
@@ -194,6 +197,11 @@ pub fn write_lights(
                 radius_px: s.radius_px,
                 edge_points: s.edge_points,
                 edge_rms_px: s.edge_rms_px,
+                centred_by: if s.centred_by_projector {
+                    "projector"
+                } else {
+                    "outline"
+                },
             })
             .collect(),
     };

@@ -151,7 +151,8 @@ impl SphereHolder {
     }
 
     /// Whether the sphere at `centre` (camera frame) shows whole, with a
-    /// margin, and the panel lies behind its outline.
+    /// margin, the panel lies behind its outline and the projector lights
+    /// it.
     fn fits(&self, c2w: &DMat4, centre: DVec3, at: &crate::scene::RigPosition) -> bool {
         let k = self.rig.intrinsics;
         let a = centre.normalize();
@@ -172,7 +173,22 @@ impl SphereHolder {
             let origin = c2w.transform_point3(DVec3::ZERO);
             let dir = c2w.transform_vector3(ray).normalize();
             in_view && hits_panel(&at.backlight, origin, dir)
-        })
+        }) && {
+            // Inside the projector's image too, whose highlight centres it.
+            let projector = matscan_scan::PinholeCamera::new(
+                at.projector.intrinsics,
+                at.projector.projector_to_world,
+            );
+            let p = &at.projector.intrinsics;
+            projector
+                .project(c2w.transform_point3(centre))
+                .is_some_and(|px| {
+                    px.x > 0.1 * f64::from(p.width)
+                        && px.y > 0.1 * f64::from(p.height)
+                        && px.x < 0.9 * f64::from(p.width)
+                        && px.y < 0.9 * f64::from(p.height)
+                })
+        }
     }
 }
 

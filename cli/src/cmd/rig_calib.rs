@@ -248,12 +248,18 @@ pub fn run_lights(a: LightsArgs) -> Result<()> {
         .with_context(|| format!("writing the lights to {}", out.display()))?;
     for (folder, s) in &lights.spheres {
         println!(
-            "  {}: sphere at {:.1} mm, radius {:.1} px, outline RMS {:.3} px ({} edge points)",
+            "  {}: sphere at {:.1} mm, radius {:.1} px, outline RMS {:.3} px ({} edge points), \
+             centred by the {}",
             folder.display(),
             1000.0 * s.centre.length(),
             s.radius_px,
             s.edge_rms_px,
-            s.edge_points
+            s.edge_points,
+            if s.centred_by_projector {
+                "projector's highlight"
+            } else {
+                "outline"
+            }
         );
     }
     for f in &lights.flashes {
