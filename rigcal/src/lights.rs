@@ -731,7 +731,7 @@ mod tests {
 
     /// A backlit photo of a dark sphere before the panel and its ambient.
     fn backlit(k: &Intrinsics, centre: DVec3, radius: f64) -> (RgbRaster, RgbRaster) {
-        let samples = 8;
+        let samples = 4;
         let backlit = RgbRaster::from_fn(k.width, k.height, |x, y| {
             let mut lit = 0.0;
             for sy in 0..samples {
