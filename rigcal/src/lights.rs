@@ -125,10 +125,11 @@ pub fn find_sphere(
             }
         })
         .collect();
-    // The panel: the brighter half of the photo's levels.
+    // The panel: the photo's bright end (it may fill only part of the view,
+    // but surely more than a fiftieth of it around the sphere).
     let mut sorted: Vec<f32> = level.clone();
     sorted.sort_by(f32::total_cmp);
-    let panel = sorted[sorted.len() * 3 / 4];
+    let panel = sorted[sorted.len() * 49 / 50];
     if panel <= 1e-4 {
         return Err(not_found(
             "the backlight panel is not behind it (the backlit photo is as dark as ambient)".into(),
