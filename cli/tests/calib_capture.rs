@@ -130,6 +130,27 @@ fn calib_capture_through_the_daemon_calibrates_the_simulated_rig_and_names_a_mis
         assert!(*off < 0.015, "{name} {:.1} mm off", off * 1e3);
     }
     assert!(spheres.join("result/lights-report.toml").is_file());
+    // The same in one go: `calib rig --spheres` writes the whole rig file.
+    let whole = dir.path().join("whole");
+    let o = matscan(&[
+        "calib",
+        "rig",
+        b,
+        "--spheres",
+        spheres.to_str().unwrap(),
+        "--out",
+        whole.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (all, _) = Manifest::read_rig(&whole.join("rig.toml")).unwrap();
+    assert_eq!(
+        matscan_rigcal::compare::compare(&all, &lit).flashes.len(),
+        2
+    );
+    assert!(matscan_rigcal::compare::compare(&all, &lit)
+        .flashes
+        .iter()
+        .all(|(_, d)| *d < 1e-9));
 
     // A shot the bundle lists but the folder lacks: named, nothing written.
     std::fs::remove_dir_all(bundle.join("result")).unwrap();

@@ -33,6 +33,11 @@ pub struct RigArgs {
     /// Refuse a calibration whose reprojection RMS is above this, pixels.
     #[arg(long, default_value_t = Acceptance::default().max_rms_px)]
     pub max_rms: f64,
+    /// A light-calibration bundle (`calib capture --target sphere`): the
+    /// flashes are located from it with the camera just calibrated, as
+    /// `calib lights` does, and the rig file gets them.
+    #[arg(long)]
+    pub spheres: Option<PathBuf>,
 }
 
 #[derive(Debug, Args)]
@@ -135,6 +140,19 @@ pub fn run_rig(a: RigArgs) -> Result<()> {
                 out.join(REPORT_FILE).display(),
                 sheet.display()
             );
+            if let Some(spheres) = &a.spheres {
+                let manifest = LightsManifest::read(spheres).with_context(|| {
+                    format!("reading light-calibration bundle {}", spheres.display())
+                })?;
+                let (rig, _) = Manifest::read_rig(&path)
+                    .with_context(|| format!("reading rig file {}", path.display()))?;
+                let lights = calibrate_lights(spheres, &manifest, &rig)
+                    .with_context(|| format!("locating the flashes from {}", spheres.display()))?;
+                let written = write_lights(&out, &rig, &lights, &path)
+                    .with_context(|| format!("writing the lights to {}", out.display()))?;
+                print_lights(&lights);
+                println!("wrote the flashes into {}", written.display());
+            }
             Ok(())
         }
         None => {
@@ -233,19 +251,8 @@ pub struct LightsArgs {
     pub out: Option<PathBuf>,
 }
 
-/// Runs `matscan calib lights`.
-pub fn run_lights(a: LightsArgs) -> Result<()> {
-    let manifest = LightsManifest::read(&a.bundle)
-        .with_context(|| format!("reading light-calibration bundle {}", a.bundle.display()))?;
-    let (rig, _) = Manifest::read_rig(&a.rig)
-        .with_context(|| format!("reading rig file {}", a.rig.display()))?;
-    let t = Instant::now();
-    let lights = calibrate_lights(&a.bundle, &manifest, &rig)
-        .with_context(|| format!("locating the flashes from {}", a.bundle.display()))?;
-    let seconds = t.elapsed().as_secs_f64();
-    let out = a.out.unwrap_or_else(|| a.bundle.join("result"));
-    let written = write_lights(&out, &rig, &lights, &a.rig)
-        .with_context(|| format!("writing the lights to {}", out.display()))?;
+/// Prints each place's sphere and each flash found.
+fn print_lights(lights: &matscan_rigcal::lights::LightCalibration) {
     for (folder, s) in &lights.spheres {
         println!(
             "  {}: sphere at {:.1} mm, radius {:.1} px, outline RMS {:.3} px ({} edge points), \
@@ -275,6 +282,22 @@ pub fn run_lights(a: LightsArgs) -> Result<()> {
             f.spread_deg
         );
     }
+}
+
+/// Runs `matscan calib lights`.
+pub fn run_lights(a: LightsArgs) -> Result<()> {
+    let manifest = LightsManifest::read(&a.bundle)
+        .with_context(|| format!("reading light-calibration bundle {}", a.bundle.display()))?;
+    let (rig, _) = Manifest::read_rig(&a.rig)
+        .with_context(|| format!("reading rig file {}", a.rig.display()))?;
+    let t = Instant::now();
+    let lights = calibrate_lights(&a.bundle, &manifest, &rig)
+        .with_context(|| format!("locating the flashes from {}", a.bundle.display()))?;
+    let seconds = t.elapsed().as_secs_f64();
+    let out = a.out.unwrap_or_else(|| a.bundle.join("result"));
+    let written = write_lights(&out, &rig, &lights, &a.rig)
+        .with_context(|| format!("writing the lights to {}", out.display()))?;
+    print_lights(&lights);
     println!("{seconds:.2} s; wrote {}", written.display());
     Ok(())
 }
