@@ -21,9 +21,9 @@ use matscan_rigcal::camera::{solve_camera, Acceptance};
 use matscan_rigcal::compare::pose_difference;
 use matscan_rigcal::detect::Corner;
 use matscan_rigcal::model::{project, Pose};
-use matscan_scan::calib_bundle::{CalibManifest, CalibPosition, Chessboard, Shot};
-use matscan_sim::calib_target::board_for;
-use matscan_sim::scene::{random_rig, Rig, RigOptions};
+use matscan_scan::calib_bundle::{CalibManifest, CalibPosition, Shot};
+use matscan_sim::calib_target::{board_for, held_pose, Hold};
+use matscan_sim::scene::{random_rig, RigOptions};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use std::path::{Path, PathBuf};
@@ -92,57 +92,6 @@ const DESIGNS: [Design; 5] = [
     },
 ];
 
-fn pose(
-    rng: &mut Pcg64,
-    board: &Chessboard,
-    rig: &Rig,
-    c2w: DMat4,
-    tilt: (f64, f64),
-    far: (f64, f64),
-) -> DMat4 {
-    let k = rig.intrinsics;
-    let distance = c2w.w_axis.truncate().length();
-    let (sq_x, sq_y) = board.squares();
-    let (x1, y1) = (
-        (f64::from(sq_x) - 0.5) * board.square,
-        (f64::from(sq_y) - 0.5) * board.square,
-    );
-    let outline = [
-        DVec3::new(-1.5 * board.square, -1.5 * board.square, 0.0),
-        DVec3::new(x1, -1.5 * board.square, 0.0),
-        DVec3::new(x1, y1, 0.0),
-        DVec3::new(-1.5 * board.square, y1, 0.0),
-    ];
-    let centre = board.corner(board.cols - 1, board.rows - 1) * 0.5;
-    loop {
-        let heading = rng.gen_range(0.0..std::f64::consts::TAU);
-        let t = rng.gen_range(tilt.0.to_radians()..tilt.1.to_radians());
-        let rotation = DQuat::from_rotation_z(rng.gen_range(-0.26..0.26))
-            * DQuat::from_axis_angle(DVec3::new(heading.cos(), heading.sin(), 0.0), t);
-        let z = distance * rng.gen_range(far.0..far.1);
-        let spread = 0.35 * z * f64::from(k.width) / k.fx;
-        let at = DVec3::new(
-            rng.gen_range(-spread..spread),
-            rng.gen_range(-spread..spread),
-            z,
-        );
-        let b2c = DMat4::from_rotation_translation(rotation, at - rotation * centre);
-        let fits = outline.iter().all(|&p| {
-            k.project_camera_point(b2c.transform_point3(p))
-                .is_some_and(|px| {
-                    let m = 0.03 * f64::from(k.width.min(k.height));
-                    px.x > m
-                        && px.y > m
-                        && px.x < f64::from(k.width) - m
-                        && px.y < f64::from(k.height) - m
-                })
-        });
-        if fits {
-            return c2w * b2c;
-        }
-    }
-}
-
 fn gauss(rng: &mut Pcg64) -> f64 {
     let u: f64 = rng.gen_range(1e-12..1.0);
     let v: f64 = rng.gen_range(0.0..1.0);
@@ -182,14 +131,17 @@ fn trial(seed: u64, draw: u64, design: &Design) -> Option<Errors> {
             let b2w = if s == 0 {
                 reference
             } else {
-                pose(
+                held_pose(
                     &mut rng,
                     &board,
                     &rig,
                     at.camera_to_world,
-                    design.tilt_deg,
-                    design.distance,
-                )
+                    None,
+                    Hold {
+                        tilt_deg: design.tilt_deg,
+                        distance: design.distance,
+                    },
+                )?
             };
             let pose_c = Pose::from_matrix(&(w2c * b2w));
             let corners: Vec<Corner> = (0..board.rows)

@@ -271,12 +271,7 @@ impl CalibManifest {
                 ));
             }
             for (s, shot) in p.shots.iter().enumerate() {
-                let inside = |f: &Path| {
-                    !f.is_absolute()
-                        && !f
-                            .components()
-                            .any(|c| matches!(c, std::path::Component::ParentDir))
-                };
+                let inside = inside_bundle;
                 if !inside(&shot.file) {
                     return Err(invalid(
                         &format!("position[{k}].shot[{s}].file"),
@@ -362,6 +357,14 @@ impl CalibManifest {
         // Plain data with string keys: serializing cannot fail.
         toml::to_string(&raw).unwrap_or_default()
     }
+}
+
+/// Whether `path` stays inside a bundle's folder: relative, and never up.
+pub(crate) fn inside_bundle(path: &Path) -> bool {
+    !path.is_absolute()
+        && !path
+            .components()
+            .any(|c| matches!(c, std::path::Component::ParentDir))
 }
 
 /// A finite transform whose upper 3x3 is a rotation and whose last row is

@@ -138,12 +138,7 @@ impl LightsManifest {
                     "expected a rig position's name",
                 ));
             }
-            let inside = !p.folder.is_absolute()
-                && !p
-                    .folder
-                    .components()
-                    .any(|c| matches!(c, std::path::Component::ParentDir));
-            if !inside {
+            if !crate::calib_bundle::inside_bundle(&p.folder) {
                 return Err(invalid(
                     &format!("placement[{k}].folder"),
                     "expected a folder inside the bundle folder",

@@ -212,16 +212,56 @@ pub fn reference_placement(board: &Chessboard, rig: &Rig) -> DMat4 {
     DMat4::from_rotation_translation(DQuat::from_mat3(&rotation), -(rotation * centre))
 }
 
+/// How a person holds the board: tilted within `tilt_deg` about an axis
+/// in its plane, at `distance` times the working distance.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Hold {
+    pub tilt_deg: (f64, f64),
+    pub distance: (f64, f64),
+}
+
+impl Hold {
+    /// Before the camera alone: tilted 10 to 40 degrees, 0.8 to 1.1 of the
+    /// working distance.
+    pub const CAMERA: Hold = Hold {
+        tilt_deg: (10.0, 40.0),
+        distance: (0.8, 1.1),
+    };
+    /// Where the projector lights it whole too: a little farther back.
+    pub const PROJECTOR: Hold = Hold {
+        tilt_deg: (10.0, 40.0),
+        distance: (0.9, 1.4),
+    };
+}
+
 /// A random board pose, as a person holds a board for calibration, in
 /// front of the camera at `camera_to_world`: the whole print in view (and
-/// in `projector`'s image, when given), tilted 10 to 40 degrees and turned
-/// in plane up to 15; `None` when no pose in 500 tries fits.
+/// in `projector`'s image, when given), held as [`Hold::CAMERA`] (or
+/// [`Hold::PROJECTOR`]) says and turned in plane up to 15 degrees; `None`
+/// when no pose in 500 tries fits.
 pub fn hand_held_pose(
     rng: &mut Pcg64,
     board: &Chessboard,
     rig: &Rig,
     camera_to_world: DMat4,
     projector: Option<&PinholeCamera>,
+) -> Option<DMat4> {
+    let hold = if projector.is_some() {
+        Hold::PROJECTOR
+    } else {
+        Hold::CAMERA
+    };
+    held_pose(rng, board, rig, camera_to_world, projector, hold)
+}
+
+/// [`hand_held_pose`] held as `hold` says.
+pub fn held_pose(
+    rng: &mut Pcg64,
+    board: &Chessboard,
+    rig: &Rig,
+    camera_to_world: DMat4,
+    projector: Option<&PinholeCamera>,
+    hold: Hold,
 ) -> Option<DMat4> {
     let k = rig.intrinsics;
     let distance = camera_to_world.w_axis.truncate().length();
@@ -238,18 +278,11 @@ pub fn hand_held_pose(
     ];
     let centre = board.corner(board.cols - 1, board.rows - 1) * 0.5;
     for _ in 0..500 {
-        // Tilted 10 to 40 degrees about an axis in the board's plane, as a
-        // person holds a board for calibration.
         let heading = rng.gen_range(0.0..std::f64::consts::TAU);
-        let tilt = rng.gen_range(10f64.to_radians()..40f64.to_radians());
+        let tilt = rng.gen_range(hold.tilt_deg.0.to_radians()..hold.tilt_deg.1.to_radians());
         let rotation = DQuat::from_rotation_z(rng.gen_range(-0.26..0.26))
             * DQuat::from_axis_angle(DVec3::new(heading.cos(), heading.sin(), 0.0), tilt);
-        let z = distance
-            * if projector.is_some() {
-                rng.gen_range(0.9..1.4)
-            } else {
-                rng.gen_range(0.8..1.1)
-            };
+        let z = distance * rng.gen_range(hold.distance.0..hold.distance.1);
         let spread = 0.35 * z * f64::from(k.width) / k.fx;
         let at = DVec3::new(
             rng.gen_range(-spread..spread),

@@ -318,18 +318,7 @@ impl RigDevices {
             positions,
             projector,
         };
-        write_atomic(
-            &pending.path().join(CALIB_MANIFEST),
-            manifest.to_toml().as_bytes(),
-        )?;
-        // A simulated rig's truth, for `matscan calib compare`.
-        if let Some(rig) = self.truth.as_ref().and_then(|t| t.rig()) {
-            write_atomic(
-                &pending.path().join(matscan_sim::calib_target::TRUTH_RIG),
-                rig.to_toml().as_bytes(),
-            )?;
-        }
-        let bundle = pending.publish()?;
+        let bundle = self.publish(pending, CALIB_MANIFEST, &manifest.to_toml())?;
         Ok(CalibrationOutcome {
             bundle,
             positions: count,
@@ -480,17 +469,7 @@ impl RigDevices {
             radius,
             placements,
         };
-        write_atomic(
-            &pending.path().join(LIGHTS_MANIFEST),
-            manifest.to_toml().as_bytes(),
-        )?;
-        if let Some(rig) = self.truth.as_ref().and_then(|t| t.rig()) {
-            write_atomic(
-                &pending.path().join(matscan_sim::calib_target::TRUTH_RIG),
-                rig.to_toml().as_bytes(),
-            )?;
-        }
-        let bundle = pending.publish()?;
+        let bundle = self.publish(pending, LIGHTS_MANIFEST, &manifest.to_toml())?;
         Ok(CalibrationOutcome {
             bundle,
             positions: 1,
@@ -499,6 +478,24 @@ impl RigDevices {
             photos: total,
             seconds: start.elapsed().as_secs_f64(),
         })
+    }
+
+    /// Writes the bundle's manifest `file` (with a simulated rig's truth
+    /// beside it, for `matscan calib compare`) and publishes `pending`.
+    fn publish(
+        &self,
+        pending: PendingDir,
+        file: &str,
+        manifest: &str,
+    ) -> Result<PathBuf, CaptureError> {
+        write_atomic(&pending.path().join(file), manifest.as_bytes())?;
+        if let Some(rig) = self.truth.as_ref().and_then(|t| t.rig()) {
+            write_atomic(
+                &pending.path().join(matscan_sim::calib_target::TRUTH_RIG),
+                rig.to_toml().as_bytes(),
+            )?;
+        }
+        Ok(pending.publish()?)
     }
 
     /// One photo with `light` alone at full power.
