@@ -403,16 +403,19 @@ impl RigDevices {
             let folder = PathBuf::from(&geometry.name).join(format!("sphere-{k:02}"));
             create_dir(&pending.path().join(&folder))?;
             // One exposure for the place's photos, short enough that no
-            // flash's highlight clips: a glossy sphere mirrors a flash far
-            // brighter than anything the scans see.
+            // light's highlight clips: a glossy sphere mirrors a flash far
+            // brighter than anything the scans see. A pixel clipped in
+            // ambient too (a lamp in the room) is not the lights' doing.
             let mut scale = 1.0f32;
-            let flashes = loop {
+            let (ambient, flashes) = loop {
                 let exposure = CameraSettings::new(geometry.exposure_s * scale, 1.0, 5000)
                     .ok_or_else(|| CaptureError::BadExposure {
                         position: geometry.name.clone(),
                         exposure_s: geometry.exposure_s * scale,
                     })?;
                 self.camera.lock(exposure)?;
+                self.camera.scene_changed(monotonic_now());
+                let ambient = self.camera.capture()?.rgb;
                 let mut frames = Vec::new();
                 for &l in lights.iter().filter(|&&l| l != LightId::Backlight) {
                     frames.push((light_photo(l.name()), self.photo_with(l, stop)?));
@@ -421,11 +424,15 @@ impl RigDevices {
                     let full = ProjectorPattern::Uniform(Level::FULL);
                     frames.push((PROJECTOR_PHOTO.to_string(), self.with_projector(full)?));
                 }
-                let clipped = frames
-                    .iter()
-                    .any(|(_, f)| f.data.iter().any(|p| p.iter().any(|&v| v >= CLIPPED_LEVEL)));
-                if !clipped {
-                    break frames;
+                let clipped = |v: &[f32; 3]| v.iter().any(|&c| c >= CLIPPED_LEVEL);
+                let lit_clips = frames.iter().any(|(_, f)| {
+                    f.data
+                        .iter()
+                        .zip(&ambient.data)
+                        .any(|(p, a)| clipped(p) && !clipped(a))
+                });
+                if !lit_clips {
+                    break (ambient, frames);
                 }
                 if scale < 1.0 / 4096.0 {
                     return Err(CaptureError::HighlightClipped {
@@ -434,10 +441,6 @@ impl RigDevices {
                     });
                 }
                 scale *= 0.25;
-            };
-            let ambient = {
-                self.camera.scene_changed(monotonic_now());
-                self.camera.capture()?.rgb
             };
             let backlit = self.photo_with(LightId::Backlight, stop)?;
             let shots = [
