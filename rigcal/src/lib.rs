@@ -9,8 +9,11 @@
 //! gives the closed-form start (homographies, intrinsics, poses);
 //! [`refine`] moves intrinsics, distortion and every pose together
 //! (Levenberg-Marquardt on the reprojection error); [`camera`] runs them
-//! over a bundle and judges the result; [`write`] publishes the rig file
-//! and the report.
+//! over a bundle and judges the result; [`projector`] calibrates the
+//! projector as an inverse camera from Gray codes; [`lights`] locates the
+//! flashes from a glossy sphere's highlights (a `matscan-lights/1`
+//! bundle); [`compare`] measures two rig files apart; [`write`] publishes
+//! the rig file and the reports.
 //!
 //! Crate choices: `calib-targets` (MIT OR Apache-2.0) for the board: ChESS
 //! corners with subpixel refinement, grid growth that rejects a board
