@@ -12,7 +12,7 @@
 //! over a bundle and judges the result; [`projector`] calibrates the
 //! projector as an inverse camera from Gray codes; [`lights`] locates the
 //! flashes from a glossy sphere's highlights (a `matscan-lights/1`
-//! bundle); [`compare`] measures two rig files apart; [`write`] publishes
+//! bundle); [`compare`] measures two rig files apart; [`write`](mod@write) publishes
 //! the rig file and the reports.
 //!
 //! Crate choices: `calib-targets` (MIT OR Apache-2.0) for the board: ChESS
