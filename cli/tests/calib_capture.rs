@@ -10,6 +10,22 @@ use daemon_support::{matscan, stdout, TestDaemon};
 use matscan_scan::Manifest;
 use serde_json::Value;
 
+/// `matscan calib capture --target ARGS --socket SOCKET --json`, which
+/// must exit 0; its JSON line.
+fn capture_json(socket: &str, args: &[&str]) -> Value {
+    let mut all = vec!["calib", "capture", "--target"];
+    all.extend_from_slice(args);
+    all.extend_from_slice(&["--socket", socket, "--json"]);
+    let o = matscan(&all);
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    serde_json::from_str(stdout(&o).lines().last().unwrap_or("")).unwrap()
+}
+
 #[test]
 fn calib_capture_through_the_daemon_calibrates_the_simulated_rig_and_names_a_missing_shot() {
     let dir = tempfile::tempdir().unwrap();
@@ -19,26 +35,10 @@ fn calib_capture_through_the_daemon_calibrates_the_simulated_rig_and_names_a_mis
         "seed = 1\nsize = 448\npositions = 2\nsamples = 4\nturntable = true",
     );
     let socket = d.socket.display().to_string();
-    let o = matscan(&[
-        "calib",
-        "capture",
-        "--target",
-        "board",
-        "--shots",
-        "6",
-        "--projector-shots",
-        "3",
-        "--socket",
+    let v = capture_json(
         &socket,
-        "--json",
-    ]);
-    assert_eq!(
-        o.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&o.stderr)
+        &["board", "--shots", "6", "--projector-shots", "3"],
     );
-    let v: Value = serde_json::from_str(stdout(&o).lines().last().unwrap_or("")).unwrap();
     let bundle = d.scans.join("calib-0001");
     assert_eq!(v["bundle"], bundle.display().to_string());
     // 2 x 6 board shots, 3 Gray-code poses of a flash photo and 2 x 20
@@ -54,24 +54,7 @@ fn calib_capture_through_the_daemon_calibrates_the_simulated_rig_and_names_a_mis
     assert_eq!(status["last_scans"], Value::Array(vec![]));
     // The glossy sphere at four places before the first camera: ambient,
     // backlight, both flashes and the projector's white at each.
-    let o = matscan(&[
-        "calib",
-        "capture",
-        "--target",
-        "sphere",
-        "--placements",
-        "4",
-        "--socket",
-        &socket,
-        "--json",
-    ]);
-    assert_eq!(
-        o.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    let v: Value = serde_json::from_str(stdout(&o).lines().last().unwrap_or("")).unwrap();
+    let v = capture_json(&socket, &["sphere", "--placements", "4"]);
     let spheres = d.scans.join("calib-0002");
     assert_eq!(v["bundle"], spheres.display().to_string());
     assert_eq!(v["summary"]["photos"], 4 * 5, "{v}");

@@ -4,7 +4,7 @@
 
 use crate::detect::{find_board_in, grey_levels, Corner};
 use crate::error::RigcalError;
-use crate::model::{project, Lens, Pose};
+use crate::model::{project, Pose};
 use crate::refine::{refine, ShotPoints};
 use crate::sheet::thumbnail;
 use crate::zhang;
@@ -71,7 +71,7 @@ pub struct ShotReport {
 #[derive(Debug, Clone, Serialize)]
 pub struct CameraReport {
     #[serde(flatten)]
-    pub lens: Lens,
+    pub lens: Intrinsics,
     /// One standard deviation of fx fy cx cy k1 k2 p1 p2 k3 (absent where
     /// the shots leave the system singular).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -338,7 +338,7 @@ fn judge(
         camera,
         camera_to_world,
         report: CameraReport {
-            lens: Lens::from(&camera),
+            lens: camera,
             sigma: refined.sigma,
             rms_px,
             coverage,

@@ -25,6 +25,7 @@
 //! nothing (see [`crate::write`]).
 
 use crate::camera::read_shot;
+use crate::detect::percentile;
 use crate::error::RigcalError;
 use glam::{DMat3, DVec2, DVec3};
 use matscan_scan::lights_bundle::{
@@ -127,9 +128,7 @@ pub fn find_sphere(
         .collect();
     // The panel: the photo's bright end (it may fill only part of the view,
     // but surely more than a fiftieth of it around the sphere).
-    let mut sorted: Vec<f32> = level.clone();
-    sorted.sort_by(f32::total_cmp);
-    let panel = sorted[sorted.len() * 49 / 50];
+    let panel = percentile(&level, 0.98);
     if panel <= 1e-4 {
         return Err(not_found(
             "the backlight panel is not behind it (the backlit photo is as dark as ambient)".into(),
@@ -146,14 +145,13 @@ pub fn find_sphere(
     })?;
     // The iso-level halfway between the sphere's own level and the
     // panel's: an anti-aliased edge crosses it where the outline lies.
-    let mut inner: Vec<f32> = level
+    let inner: Vec<f32> = level
         .iter()
         .zip(&blob)
         .filter(|(_, &b)| b)
         .map(|(&v, _)| v)
         .collect();
-    inner.sort_by(f32::total_cmp);
-    let inner_level = inner.get(inner.len() / 2).copied().unwrap_or(0.0);
+    let inner_level = percentile(&inner, 0.5);
     let half = 0.5 * (panel + inner_level);
     // Sub-pixel crossings of that level between 4-neighbours, one of them
     // on the blob.
@@ -307,31 +305,24 @@ pub fn find_highlight(
     };
     let (cx, cy) = (sphere.centre_px.x, sphere.centre_px.y);
     let r = sphere.radius_px.ceil() as i64 + 1;
+    // The peak, and the disc's median under this light: a highlight must
+    // stand out of the sphere's own lit surface (a glossy sphere's diffuse
+    // share).
     let mut peak = (0.0f32, 0i64, 0i64);
+    let mut disc = Vec::new();
     for y in (cy as i64 - r).max(0)..(cy as i64 + r).min(h) {
         for x in (cx as i64 - r).max(0)..(cx as i64 + r).min(w) {
-            let d = DVec2::new(x as f64 + 0.5 - cx, y as f64 + 0.5 - cy).length();
-            if d > inside {
+            if DVec2::new(x as f64 + 0.5 - cx, y as f64 + 0.5 - cy).length() > inside {
                 continue;
             }
             let (v, _) = at(x, y);
+            disc.push(v);
             if v > peak.0 {
                 peak = (v, x, y);
             }
         }
     }
-    // A highlight must stand out of the sphere's own lit surface: the disc's
-    // median under this flash is the glossy sphere's diffuse share.
-    let mut disc = Vec::new();
-    for y in (cy as i64 - r).max(0)..(cy as i64 + r).min(h) {
-        for x in (cx as i64 - r).max(0)..(cx as i64 + r).min(w) {
-            if DVec2::new(x as f64 + 0.5 - cx, y as f64 + 0.5 - cy).length() <= inside {
-                disc.push(at(x, y).0);
-            }
-        }
-    }
-    disc.sort_by(f32::total_cmp);
-    let floor = disc.get(disc.len() / 2).copied().unwrap_or(0.0).max(0.0);
+    let floor = percentile(&disc, 0.5).max(0.0);
     if peak.0 <= 10.0 * floor.max(1e-4) {
         return Err(RigcalError::Highlight {
             path: path.to_path_buf(),

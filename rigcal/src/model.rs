@@ -27,55 +27,6 @@ pub fn unpack_intrinsics(p: &[f64], width: u32, height: u32) -> Intrinsics {
     }
 }
 
-/// A calibrated camera's or projector's intrinsics as its report states
-/// them (`Intrinsics` is the solver's type and has no file form of its own).
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
-pub struct Lens {
-    pub width: u32,
-    pub height: u32,
-    pub fx: f64,
-    pub fy: f64,
-    pub cx: f64,
-    pub cy: f64,
-    /// OpenCV k1 k2 p1 p2 k3.
-    pub distortion: [f64; 5],
-}
-
-impl From<&Intrinsics> for Lens {
-    fn from(k: &Intrinsics) -> Lens {
-        Lens {
-            width: k.width,
-            height: k.height,
-            fx: k.fx,
-            fy: k.fy,
-            cx: k.cx,
-            cy: k.cy,
-            distortion: k.distortion,
-        }
-    }
-}
-
-impl std::fmt::Display for Lens {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let d = self.distortion;
-        write!(
-            f,
-            "{}x{}: fx {:.2} fy {:.2} cx {:.2} cy {:.2}, distortion {:.4} {:.4} {:.5} {:.5} {:.4}",
-            self.width,
-            self.height,
-            self.fx,
-            self.fy,
-            self.cx,
-            self.cy,
-            d[0],
-            d[1],
-            d[2],
-            d[3],
-            d[4]
-        )
-    }
-}
-
 /// A rigid board-to-camera transform.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Pose {

@@ -20,7 +20,7 @@
 use crate::camera::{read_shot, CameraCalibration};
 use crate::detect::{corner_spacing, luminance, percentile, Corner};
 use crate::error::RigcalError;
-use crate::model::{project, Lens, Pose};
+use crate::model::{project, Pose};
 use crate::refine::{least_squares, refine, ShotPoints, PROJECTOR_FIXED};
 use crate::zhang;
 use glam::{DMat4, DQuat, DVec2, DVec3};
@@ -54,7 +54,7 @@ pub struct ProjectorShotReport {
 #[derive(Debug, Clone, Serialize)]
 pub struct ProjectorReport {
     #[serde(flatten)]
-    pub lens: Lens,
+    pub lens: Intrinsics,
     /// Reprojection RMS in projector pixels.
     pub rms_px: f64,
     /// Spread of the projector's pose over the shots: largest distance of
@@ -199,7 +199,7 @@ pub fn calibrate_projector(
             .map(|(name, c)| (name.clone(), *c * projector_to_camera))
             .collect(),
         report: ProjectorReport {
-            lens: Lens::from(&k),
+            lens: k,
             rms_px: (sum / count.max(1) as f64).sqrt(),
             pose_spread: spread,
             pose_spread_deg: spread_deg,

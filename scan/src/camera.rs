@@ -9,7 +9,7 @@ use crate::bvh::Ray;
 use glam::{DMat4, DVec2, DVec3};
 
 /// Intrinsics of a camera or projector, in pixels.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct Intrinsics {
     pub width: u32,
     pub height: u32,
@@ -27,6 +27,28 @@ pub struct PinholeCamera {
     pub intrinsics: Intrinsics,
     pub camera_to_world: DMat4,
     world_to_camera: DMat4,
+}
+
+/// One line, as calibration reports print it.
+impl std::fmt::Display for Intrinsics {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let d = self.distortion;
+        write!(
+            f,
+            "{}x{}: fx {:.2} fy {:.2} cx {:.2} cy {:.2}, distortion {:.4} {:.4} {:.5} {:.5} {:.4}",
+            self.width,
+            self.height,
+            self.fx,
+            self.fy,
+            self.cx,
+            self.cy,
+            d[0],
+            d[1],
+            d[2],
+            d[3],
+            d[4]
+        )
+    }
 }
 
 impl Intrinsics {

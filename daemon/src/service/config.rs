@@ -702,16 +702,7 @@ fn calibration(
     };
     let shots = raw.shots.unwrap_or(defaults.shots);
     let projector_shots = raw.projector_shots.unwrap_or(defaults.projector_shots);
-    if BoardPlan::new(shots, projector_shots).is_none() {
-        return Err(invalid(
-            "calibration.shots",
-            format!(
-                "shots = {shots}, projector_shots = {projector_shots}: expected 1 to {max} board \
-                 poses per position and at most {max} for the projector",
-                max = BoardPlan::MAX_SHOTS
-            ),
-        ));
-    }
+    BoardPlan::new(shots, projector_shots).map_err(|e| invalid("calibration.shots", e))?;
     let positions = raw.positions.unwrap_or(defaults.positions);
     if positions == 0 {
         return Err(invalid(
@@ -728,15 +719,7 @@ fn calibration(
         }
     }
     let sphere_placements = raw.sphere_placements.unwrap_or(defaults.sphere_placements);
-    if SpherePlan::new(sphere_placements).is_none() {
-        return Err(invalid(
-            "calibration.sphere_placements",
-            format!(
-                "{sphere_placements}: expected 2 to {} places",
-                BoardPlan::MAX_SHOTS
-            ),
-        ));
-    }
+    SpherePlan::new(sphere_placements).map_err(|e| invalid("calibration.sphere_placements", e))?;
     Ok(CalibrationSettings {
         target,
         shots,
@@ -1043,6 +1026,18 @@ mod tests {
         let c = Config::parse(&on, Path::new("packaging/matscan.toml")).unwrap();
         assert_eq!(c.socket_group.as_deref(), Some("scanner"));
         assert!(c.rig.has_footswitch());
+    }
+
+    #[test]
+    fn the_packaged_calibration_config_is_valid() {
+        let text = include_str!("../../../packaging/calib-sim.toml");
+        let c = Config::parse(text, Path::new("packaging/calib-sim.toml")).unwrap();
+        let RigChoice::Simulated(sim) = &c.rig else {
+            panic!("a simulated rig");
+        };
+        assert_eq!(sim.frame, None, "the unframed, rigid head");
+        assert_eq!(c.calibration.projector_shots, 12);
+        assert!(!c.estimate.enabled);
     }
 
     #[test]

@@ -85,26 +85,13 @@ pub fn request_calibration(
         "board" => {
             let shots = counts.shots.unwrap_or(c.shots);
             let projector_shots = counts.projector_shots.unwrap_or(c.projector_shots);
-            BoardPlan::new(shots, projector_shots)
-                .map(CalibrationPlan::Board)
-                .ok_or_else(|| {
-                    format!(
-                    "shots = {shots}, projector_shots = {projector_shots}: expected 1 to {max} \
-                     board poses per position and at most {max} for the projector",
-                    max = BoardPlan::MAX_SHOTS
-                )
-                })
+            BoardPlan::new(shots, projector_shots).map(CalibrationPlan::Board)
         }
         "sphere" => {
             let placements = counts.placements.unwrap_or(c.sphere_placements);
             SpherePlan::new(placements)
                 .map(CalibrationPlan::Sphere)
-                .ok_or_else(|| {
-                    format!(
-                        "placements = {placements}: expected 2 to {} places of the sphere",
-                        BoardPlan::MAX_SHOTS
-                    )
-                })
+                .map_err(|e| format!("placements = {e}"))
         }
         other => {
             return refusal(

@@ -220,17 +220,46 @@ impl RigDevices {
         progress: &mut dyn FnMut(Progress),
     ) -> Result<CaptureOutcome, CaptureError> {
         let result = self.capture_inner(plan, profile_info, target, settings, stop, progress);
-        // Whatever happened, leave the rig dark; a failure here must not
-        // hide the capture's own error.
+        self.leave_dark("capture");
+        result
+    }
+
+    /// Every rig light off, the projector black and the target, if a hand
+    /// holds one, taken away; after a capture, whatever happened. A
+    /// failure here is logged: it must not hide the capture's own error.
+    fn leave_dark(&mut self, what: &str) {
+        if let Some(hand) = self.hand.as_mut() {
+            hand.remove();
+        }
         if let Err(e) = self.lights.all_off() {
-            tracing::warn!("switching the lights off after the capture: {e}");
+            tracing::warn!("switching the lights off after the {what}: {e}");
         }
         if let Some(projector) = self.projector.as_mut() {
             if let Err(e) = projector.show(ProjectorPattern::Black) {
-                tracing::warn!("blanking the projector after the capture: {e}");
+                tracing::warn!("blanking the projector after the {what}: {e}");
             }
         }
-        result
+    }
+
+    /// Every rig light off, the projector black, the turntable home: where
+    /// every capture starts.
+    fn start_dark(&mut self) -> Result<(), CaptureError> {
+        self.lights.all_off()?;
+        if let Some(projector) = self.projector.as_mut() {
+            projector.show(ProjectorPattern::Black)?;
+        }
+        self.home()
+    }
+
+    /// Locks the camera at `exposure_s` for photos at `position`.
+    fn lock_exposure(&mut self, position: &str, exposure_s: f32) -> Result<(), CaptureError> {
+        let settings = CameraSettings::new(exposure_s, 1.0, 5000).ok_or_else(|| {
+            CaptureError::BadExposure {
+                position: position.to_string(),
+                exposure_s,
+            }
+        })?;
+        Ok(self.camera.lock(settings)?)
     }
 
     fn capture_inner(
@@ -248,11 +277,7 @@ impl RigDevices {
             return Err(CaptureError::CannotMove { positions: count });
         }
         let writer = BundleWriter::create(target)?;
-        self.lights.all_off()?;
-        if let Some(projector) = self.projector.as_mut() {
-            projector.show(ProjectorPattern::Black)?;
-        }
-        self.home()?;
+        self.start_dark()?;
         let total = count * plan.captures.len();
         let mut positions = Vec::with_capacity(count);
         let mut retries = 0;
@@ -262,14 +287,7 @@ impl RigDevices {
             if index > 0 {
                 presses_during += self.next_position(&geometry.name, settings, stop)?;
             }
-            let exposure =
-                CameraSettings::new(geometry.exposure_s, 1.0, 5000).ok_or_else(|| {
-                    CaptureError::BadExposure {
-                        position: geometry.name.clone(),
-                        exposure_s: geometry.exposure_s,
-                    }
-                })?;
-            self.camera.lock(exposure)?;
+            self.lock_exposure(&geometry.name, geometry.exposure_s)?;
             let mut captures = Vec::new();
             let mut ambient: Option<RgbRaster> = None;
             for planned in &plan.captures {

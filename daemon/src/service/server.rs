@@ -477,28 +477,14 @@ fn run_job(
         "job {id}: capturing into {} (profile {profile_name})",
         target.display()
     );
-    let settings = RunSettings {
-        light_retries: config.capture.light_retries,
-        min_light_difference: config.capture.min_light_difference,
-        operator_timeout: config.capture.operator_timeout,
-    };
-    let mut progress = |p: Progress| {
-        shared.update(|s| {
-            s.event(
-                id,
-                json!({"event": "progress", "job": id, "done": p.done, "total": p.total, "what": p.what}),
-            )
-        })
-    };
+    let settings = run_settings(config);
+    let mut progress = progress_events(shared, id);
     match r.capture(
         &plan,
         &info,
         &target,
         &settings,
-        &|| {
-            shared.beat();
-            shared.cancel.load(Ordering::SeqCst)
-        },
+        &|| should_stop(shared),
         &mut progress,
     ) {
         Ok(o) => Ok((
@@ -556,27 +542,13 @@ fn run_calibration(
         "job {id}: photographing the calibration board into {}",
         target.display()
     );
-    let settings = RunSettings {
-        light_retries: config.capture.light_retries,
-        min_light_difference: config.capture.min_light_difference,
-        operator_timeout: config.capture.operator_timeout,
-    };
+    let settings = run_settings(config);
     let mut prompt = |what: &str| {
         tracing::info!("job {id}: {what}");
         shared.update(|s| s.event(id, json!({"event": "prompt", "job": id, "what": what})))
     };
-    let mut progress = |p: Progress| {
-        shared.update(|s| {
-            s.event(
-                id,
-                json!({"event": "progress", "job": id, "done": p.done, "total": p.total, "what": p.what}),
-            )
-        })
-    };
-    let stop = || {
-        shared.beat();
-        shared.cancel.load(Ordering::SeqCst)
-    };
+    let mut progress = progress_events(shared, id);
+    let stop = || should_stop(shared);
     let outcome = match plan {
         CalibrationPlan::Board(board) => {
             r.capture_calibration(board, &target, &settings, &stop, &mut prompt, &mut progress)
@@ -605,21 +577,32 @@ fn run_calibration(
     ))
 }
 
-/// `scans/calib-NNNN`, one past the highest number there.
-pub fn next_calibration_path(scans: &Path) -> Result<PathBuf, ServerError> {
-    let mut highest = 0u64;
-    let entries = std::fs::read_dir(scans).map_err(io_err(scans, "listing the scans folder"))?;
-    for entry in entries.flatten() {
-        let n = entry
-            .file_name()
-            .to_str()
-            .and_then(|n| n.strip_prefix("calib-"))
-            .and_then(|n| n.parse::<u64>().ok());
-        if let Some(n) = n {
-            highest = highest.max(n);
-        }
+/// The capture knobs of `config`.
+fn run_settings(config: &Config) -> RunSettings {
+    RunSettings {
+        light_retries: config.capture.light_retries,
+        min_light_difference: config.capture.min_light_difference,
+        operator_timeout: config.capture.operator_timeout,
     }
-    Ok(scans.join(format!("calib-{:04}", highest + 1)))
+}
+
+/// Records each photo of job `id` as a `progress` event.
+fn progress_events(shared: &Shared, id: u64) -> impl FnMut(Progress) + '_ {
+    move |p: Progress| {
+        shared.update(|s| {
+            s.event(
+                id,
+                json!({"event": "progress", "job": id, "done": p.done, "total": p.total, "what": p.what}),
+            )
+        })
+    }
+}
+
+/// Whether the running capture is to stop; beats the watchdog, since the
+/// sequencer asks before every photo.
+fn should_stop(shared: &Shared) -> bool {
+    shared.beat();
+    shared.cancel.load(Ordering::SeqCst)
 }
 
 fn toml_string(s: &str) -> String {
@@ -727,19 +710,38 @@ pub fn unestimated_tail(scans: &Path) -> Vec<(PathBuf, CaptureInfo)> {
 
 /// N of a published scan's folder name `scan-NNNN`.
 fn scan_number(name: &std::ffi::OsStr) -> Option<u64> {
-    name.to_str()?.strip_prefix("scan-")?.parse().ok()
+    numbered(name, SCAN_PREFIX)
 }
+
+/// N of a folder name `<prefix>NNNN`.
+fn numbered(name: &std::ffi::OsStr, prefix: &str) -> Option<u64> {
+    name.to_str()?.strip_prefix(prefix)?.parse().ok()
+}
+
+/// Scans are `scan-NNNN`, calibration bundles `calib-NNNN`.
+const SCAN_PREFIX: &str = "scan-";
+const CALIBRATION_PREFIX: &str = "calib-";
 
 /// `scans/scan-NNNN`, one past the highest number there.
 pub fn next_scan_path(scans: &Path) -> Result<PathBuf, ServerError> {
+    next_numbered_path(scans, SCAN_PREFIX)
+}
+
+/// `scans/calib-NNNN`, one past the highest number there.
+pub fn next_calibration_path(scans: &Path) -> Result<PathBuf, ServerError> {
+    next_numbered_path(scans, CALIBRATION_PREFIX)
+}
+
+/// `scans/<prefix>NNNN`, one past the highest number there.
+fn next_numbered_path(scans: &Path, prefix: &str) -> Result<PathBuf, ServerError> {
     let mut highest = 0u64;
     let entries = std::fs::read_dir(scans).map_err(io_err(scans, "listing the scans folder"))?;
     for entry in entries.flatten() {
-        if let Some(n) = scan_number(&entry.file_name()) {
+        if let Some(n) = numbered(&entry.file_name(), prefix) {
             highest = highest.max(n);
         }
     }
-    Ok(scans.join(format!("scan-{:04}", highest + 1)))
+    Ok(scans.join(format!("{prefix}{:04}", highest + 1)))
 }
 
 /// Binds `path` with mode 0660 (and group `group` when given), replacing a

@@ -25,9 +25,7 @@
 //! looks like a calibration.
 
 use super::{CaptureError, Progress, RigDevices, RunSettings};
-use matscan_drivers::{
-    monotonic_now, CameraSettings, GrayCode, Level, LightId, ProjectorPattern, TargetPlacement,
-};
+use matscan_drivers::{monotonic_now, GrayCode, Level, LightId, ProjectorPattern, TargetPlacement};
 use matscan_scan::atomic::{write_atomic, PendingDir};
 use matscan_scan::calib_bundle::{
     graycode_file, CalibManifest, CalibPosition, Chessboard, ProjectorSize, Shot, CALIB_MANIFEST,
@@ -64,15 +62,21 @@ impl BoardPlan {
     /// Most poses per position or for the projector a request may ask.
     pub const MAX_SHOTS: usize = 64;
 
-    /// `None` unless there is at least the reference shot and neither count
-    /// exceeds [`BoardPlan::MAX_SHOTS`].
-    pub fn new(shots: usize, projector_shots: usize) -> Option<BoardPlan> {
-        ((1..=Self::MAX_SHOTS).contains(&shots) && projector_shots <= Self::MAX_SHOTS).then_some(
-            BoardPlan {
+    /// The plan, unless there is not even the reference shot or a count
+    /// exceeds [`BoardPlan::MAX_SHOTS`] (the error says what is expected).
+    pub fn new(shots: usize, projector_shots: usize) -> Result<BoardPlan, String> {
+        let max = Self::MAX_SHOTS;
+        ((1..=max).contains(&shots) && projector_shots <= max)
+            .then_some(BoardPlan {
                 shots,
                 projector_shots,
-            },
-        )
+            })
+            .ok_or_else(|| {
+                format!(
+                    "shots = {shots}, projector_shots = {projector_shots}: expected 1 to {max} \
+                     board poses per position and at most {max} for the projector"
+                )
+            })
     }
 }
 
@@ -83,12 +87,15 @@ pub struct SpherePlan {
 }
 
 impl SpherePlan {
-    /// `None` unless there are 2 to [`BoardPlan::MAX_SHOTS`] places: a flash
-    /// is where the rays of two or more places meet.
-    pub fn new(placements: usize) -> Option<SpherePlan> {
-        (2..=BoardPlan::MAX_SHOTS)
+    /// The plan, unless there are fewer than 2 or more than
+    /// [`BoardPlan::MAX_SHOTS`] places: a flash is where the rays of two or
+    /// more places meet.
+    pub fn new(placements: usize) -> Result<SpherePlan, String> {
+        let max = BoardPlan::MAX_SHOTS;
+        (2..=max)
             .contains(&placements)
             .then_some(SpherePlan { placements })
+            .ok_or_else(|| format!("{placements}: expected 2 to {max} places of the sphere"))
     }
 }
 
@@ -153,17 +160,7 @@ impl RigDevices {
         progress: &mut dyn FnMut(Progress),
     ) -> Result<CalibrationOutcome, CaptureError> {
         let result = self.calibration_inner(plan, target, settings, stop, prompt, progress);
-        if let Some(hand) = self.hand.as_mut() {
-            hand.remove();
-        }
-        if let Err(e) = self.lights.all_off() {
-            tracing::warn!("switching the lights off after the calibration: {e}");
-        }
-        if let Some(projector) = self.projector.as_mut() {
-            if let Err(e) = projector.show(ProjectorPattern::Black) {
-                tracing::warn!("blanking the projector after the calibration: {e}");
-            }
-        }
+        self.leave_dark("calibration");
         result
     }
 
@@ -188,11 +185,7 @@ impl RigDevices {
         }
         let total = count * plan.shots + plan.projector_shots * (1 + codes.len());
         let pending = PendingDir::create(target)?;
-        self.lights.all_off()?;
-        if let Some(projector) = self.projector.as_mut() {
-            projector.show(ProjectorPattern::Black)?;
-        }
-        self.home()?;
+        self.start_dark()?;
         let mut done = 0;
         let mut positions = Vec::with_capacity(count);
         for index in 0..count {
@@ -203,14 +196,7 @@ impl RigDevices {
                 }
                 self.next_position(&geometry.name, settings, stop)?;
             }
-            let exposure =
-                CameraSettings::new(geometry.exposure_s, 1.0, 5000).ok_or_else(|| {
-                    CaptureError::BadExposure {
-                        position: geometry.name.clone(),
-                        exposure_s: geometry.exposure_s,
-                    }
-                })?;
-            self.camera.lock(exposure)?;
+            self.lock_exposure(&geometry.name, geometry.exposure_s)?;
             let folder = PathBuf::from(&geometry.name);
             create_dir(&pending.path().join(&folder))?;
             let mut shots = Vec::new();
@@ -236,7 +222,7 @@ impl RigDevices {
                 };
                 self.present(index, placement, &task, settings, stop, prompt)?;
                 let file = folder.join(format!("board-{s:02}.exr"));
-                self.photograph_board(pending.path(), &file)?;
+                self.photograph_board(pending.path(), &file, stop)?;
                 done += 1;
                 progress(Progress {
                     done,
@@ -267,7 +253,7 @@ impl RigDevices {
                     let shot = folder.join(format!("projector-{k:02}"));
                     create_dir(&pending.path().join(&shot))?;
                     let file = shot.join("board.exr");
-                    self.photograph_board(pending.path(), &file)?;
+                    self.photograph_board(pending.path(), &file, stop)?;
                     done += 1;
                     progress(Progress {
                         done,
@@ -299,9 +285,6 @@ impl RigDevices {
                 name: geometry.name.clone(),
                 shots,
             });
-        }
-        if let Some(hand) = self.hand.as_mut() {
-            hand.remove();
         }
         self.home()?;
         let projector = match (plan.projector_shots, self.projector.as_ref()) {
@@ -342,12 +325,7 @@ impl RigDevices {
         progress: &mut dyn FnMut(Progress),
     ) -> Result<CalibrationOutcome, CaptureError> {
         let result = self.sphere_inner(plan, target, stop, settings, prompt, progress);
-        if let Some(hand) = self.hand.as_mut() {
-            hand.remove();
-        }
-        if let Err(e) = self.lights.all_off() {
-            tracing::warn!("switching the lights off after the calibration: {e}");
-        }
+        self.leave_dark("calibration");
         result
     }
 
@@ -377,18 +355,7 @@ impl RigDevices {
             .is_some_and(|p| p.can_show(&ProjectorPattern::Uniform(Level::FULL)));
         let total = plan.placements * (1 + lights.len() + usize::from(with_projector));
         let pending = PendingDir::create(target)?;
-        self.lights.all_off()?;
-        if let Some(projector) = self.projector.as_mut() {
-            projector.show(ProjectorPattern::Black)?;
-        }
-        self.home()?;
-        let exposure = CameraSettings::new(geometry.exposure_s, 1.0, 5000).ok_or_else(|| {
-            CaptureError::BadExposure {
-                position: geometry.name.clone(),
-                exposure_s: geometry.exposure_s,
-            }
-        })?;
-        self.camera.lock(exposure)?;
+        self.start_dark()?;
         let mut placements = Vec::new();
         let mut done = 0;
         for k in 0..plan.placements {
@@ -408,17 +375,12 @@ impl RigDevices {
             // ambient too (a lamp in the room) is not the lights' doing.
             let mut scale = 1.0f32;
             let (ambient, flashes) = loop {
-                let exposure = CameraSettings::new(geometry.exposure_s * scale, 1.0, 5000)
-                    .ok_or_else(|| CaptureError::BadExposure {
-                        position: geometry.name.clone(),
-                        exposure_s: geometry.exposure_s * scale,
-                    })?;
-                self.camera.lock(exposure)?;
+                self.lock_exposure(&geometry.name, geometry.exposure_s * scale)?;
                 self.camera.scene_changed(monotonic_now());
                 let ambient = self.camera.capture()?.rgb;
                 let mut frames = Vec::new();
                 for &l in lights.iter().filter(|&&l| l != LightId::Backlight) {
-                    frames.push((light_photo(l.name()), self.photo_with(l, stop)?));
+                    frames.push((light_photo(l.name()), self.photo_with(&[l], stop)?));
                 }
                 if with_projector {
                     let full = ProjectorPattern::Uniform(Level::FULL);
@@ -442,7 +404,7 @@ impl RigDevices {
                 }
                 scale *= 0.25;
             };
-            let backlit = self.photo_with(LightId::Backlight, stop)?;
+            let backlit = self.photo_with(&[LightId::Backlight], stop)?;
             let shots = [
                 (AMBIENT_PHOTO.to_string(), ambient),
                 (BACKLIGHT_PHOTO.to_string(), backlit),
@@ -463,9 +425,6 @@ impl RigDevices {
                 position: geometry.name.clone(),
                 folder,
             });
-        }
-        if let Some(hand) = self.hand.as_mut() {
-            hand.remove();
         }
         let manifest = LightsManifest {
             units: "m".into(),
@@ -501,19 +460,23 @@ impl RigDevices {
         Ok(pending.publish()?)
     }
 
-    /// One photo with `light` alone at full power.
+    /// One photo with `lights` alone at full power.
     fn photo_with(
         &mut self,
-        light: LightId,
+        lights: &[LightId],
         stop: &dyn Fn() -> bool,
     ) -> Result<RgbRaster, CaptureError> {
         if stop() {
             return Err(CaptureError::Cancelled);
         }
-        self.lights.on(light, Level::FULL)?;
+        for &light in lights {
+            self.lights.on(light, Level::FULL)?;
+        }
         self.camera.scene_changed(monotonic_now());
         let frame = self.camera.capture();
-        self.lights.off(light)?;
+        for &light in lights {
+            self.lights.off(light)?;
+        }
         self.camera.scene_changed(monotonic_now());
         Ok(frame?.rgb)
     }
@@ -579,18 +542,14 @@ impl RigDevices {
     }
 
     /// Photographs the board under both flashes into `root/file`.
-    fn photograph_board(&mut self, root: &Path, file: &Path) -> Result<(), CaptureError> {
-        let flashes = [LightId::Flash0, LightId::Flash1];
-        for light in flashes {
-            self.lights.on(light, Level::FULL)?;
-        }
-        self.camera.scene_changed(monotonic_now());
-        let frame = self.camera.capture();
-        for light in flashes {
-            self.lights.off(light)?;
-        }
-        self.camera.scene_changed(monotonic_now());
-        self.write_photo(root, file, &frame?.rgb)
+    fn photograph_board(
+        &mut self,
+        root: &Path,
+        file: &Path,
+        stop: &dyn Fn() -> bool,
+    ) -> Result<(), CaptureError> {
+        let rgb = self.photo_with(&[LightId::Flash0, LightId::Flash1], stop)?;
+        self.write_photo(root, file, &rgb)
     }
 
     /// One photo with the projector alone showing `pattern`, then black.

@@ -404,5 +404,5 @@ fn a_sphere_capture_without_a_sphere_radius_says_so_and_writes_nothing() {
     assert!(matches!(err, CaptureError::NoSphere), "{err}");
     assert!(err.to_string().contains("sphere_radius"), "{err}");
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
-    assert!(SpherePlan::new(1).is_none(), "one place fixes no flash");
+    assert!(SpherePlan::new(1).is_err(), "one place fixes no flash");
 }
