@@ -58,6 +58,12 @@ fn calib_capture_through_the_daemon_calibrates_the_simulated_rig_and_names_a_mis
     let spheres = d.scans.join("calib-0002");
     assert_eq!(v["bundle"], spheres.display().to_string());
     assert_eq!(v["summary"]["photos"], 4 * 5, "{v}");
+    // The backlight panel with the mount empty (and its ambient), the
+    // white card on the board's mount (ambient, both flashes, the
+    // projector), then flash0 and its ambient at half the exposure.
+    let v = capture_json(&socket, &["white", "--exposures", "2"]);
+    let white = d.scans.join("calib-0003");
+    assert_eq!(v["summary"]["photos"], 2 + 4 + 2, "{v}");
     d.stop();
 
     let b = bundle.to_str().unwrap();
@@ -113,7 +119,8 @@ fn calib_capture_through_the_daemon_calibrates_the_simulated_rig_and_names_a_mis
         assert!(*off < 0.015, "{name} {:.1} mm off", off * 1e3);
     }
     assert!(spheres.join("result/lights-report.toml").is_file());
-    // The same in one go: `calib rig --spheres` writes the whole rig file.
+    // The same in one go: `calib rig --spheres --white` writes the whole
+    // rig file, the lights' intensities from the white card included.
     let whole = dir.path().join("whole");
     let o = matscan(&[
         "calib",
@@ -121,19 +128,27 @@ fn calib_capture_through_the_daemon_calibrates_the_simulated_rig_and_names_a_mis
         b,
         "--spheres",
         spheres.to_str().unwrap(),
+        "--white",
+        white.to_str().unwrap(),
         "--out",
         whole.to_str().unwrap(),
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(stdout(&o).contains("linearity of flash0"), "{}", stdout(&o));
     let (all, _) = Manifest::read_rig(&whole.join("rig.toml")).unwrap();
-    assert_eq!(
-        matscan_rigcal::compare::compare(&all, &lit).flashes.len(),
-        2
-    );
-    assert!(matscan_rigcal::compare::compare(&all, &lit)
-        .flashes
-        .iter()
-        .all(|(_, d)| *d < 1e-9));
+    let d = matscan_rigcal::compare::compare(&all, &lit);
+    assert_eq!(d.flashes.len(), 2);
+    assert!(d.flashes.iter().all(|(_, d)| *d < 1e-9));
+    let d = matscan_rigcal::compare::compare(&all, &t);
+    assert_eq!(d.intensities.len(), 4, "{d:?}");
+    for (name, off) in &d.intensities {
+        assert!(
+            off.abs() < 0.02,
+            "{name}: intensity {:+.2} % off",
+            off * 100.0
+        );
+    }
+    assert!(whole.join("white-report.toml").is_file());
 
     // A shot the bundle lists but the folder lacks: named, nothing written.
     std::fs::remove_dir_all(bundle.join("result")).unwrap();

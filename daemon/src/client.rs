@@ -299,6 +299,8 @@ pub struct CalibCaptureOptions {
     pub projector_shots: Option<usize>,
     /// Places of the sphere (default: the daemon's).
     pub placements: Option<usize>,
+    /// Exposures of the white card (default: the daemon's).
+    pub exposures: Option<usize>,
     /// Print one JSON object (`bundle` and `summary`).
     pub json: bool,
 }
@@ -309,7 +311,7 @@ pub struct CalibCaptureOptions {
 pub fn request_calibration(
     socket: &Path,
     target: &str,
-    counts: [(&str, Option<usize>); 3],
+    counts: [(&str, Option<usize>); 4],
     event: &mut dyn FnMut(&Value),
 ) -> Result<(PathBuf, Value), ClientError> {
     let mut conn = Connection::open(socket)?;
@@ -376,6 +378,7 @@ pub fn calib_capture(args: &CalibCaptureOptions) -> u8 {
         ("shots", args.shots),
         ("projector_shots", args.projector_shots),
         ("placements", args.placements),
+        ("exposures", args.exposures),
     ];
     match request_calibration(&args.socket, &args.target, counts, &mut event) {
         Ok((bundle, summary)) => {
@@ -384,7 +387,16 @@ pub fn calib_capture(args: &CalibCaptureOptions) -> u8 {
             } else {
                 println!("{}", bundle.display());
                 let seconds = summary["seconds"].as_f64().unwrap_or(0.0);
-                if summary["target"] == "sphere" {
+                if summary["target"] == "white" {
+                    println!(
+                        "the white card under every light, {} photos, {seconds:.1} s",
+                        summary["photos"]
+                    );
+                    println!(
+                        "next: matscan calib radiometry {} --rig <the rig file with the flashes located>",
+                        bundle.display()
+                    );
+                } else if summary["target"] == "sphere" {
                     println!(
                         "the sphere at {} places, {} photos, {seconds:.1} s",
                         summary["shots"], summary["photos"]

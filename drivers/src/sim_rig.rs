@@ -39,10 +39,12 @@ use crate::traits::{
     Positioner, Press, Projector, ProjectorPattern, TargetHand, TargetPlacement, Trigger,
 };
 use matscan_scan::raster::RgbRaster;
+use matscan_scan::white_bundle::WhiteCard;
 use matscan_sim::calib_target::{BoardHolder, INNER_CORNERS};
 use matscan_sim::render::{CaptureSpec, RenderOptions, Renderer};
 use matscan_sim::scene::Scene;
 use matscan_sim::sphere_target::SphereHolder;
+use matscan_sim::white_target::{empty_mount_scene, white_card_scene, CARD_ALBEDO, CARD_ROUGHNESS};
 use std::path::Path;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::mpsc::{channel, Receiver, RecvTimeoutError, Sender};
@@ -555,7 +557,8 @@ impl Projector for SimProjector {
 
 /// The simulated operator: holds a printed board up in the object's place
 /// ([`BoardHolder`] picks the poses), or the light-calibration sphere
-/// ([`SphereHolder`]), as a person does for a calibration.
+/// ([`SphereHolder`]), or the white card on the board's mount, as a person
+/// does for a calibration.
 pub struct SimHand {
     holder: BoardHolder,
     sphere: SphereHolder,
@@ -590,6 +593,16 @@ impl TargetHand for SimHand {
             TargetPlacement::HandHeld => self.holder.hand_held(position, false),
             TargetPlacement::InProjectorView => self.holder.hand_held(position, true),
             TargetPlacement::Sphere => self.sphere.place(position),
+            TargetPlacement::WhiteCard => Ok(white_card_scene(
+                &WhiteCard::on_board(
+                    self.holder.board(),
+                    self.holder.reference_to_world(),
+                    CARD_ALBEDO,
+                    CARD_ROUGHNESS,
+                ),
+                self.holder.rig(),
+            )),
+            TargetPlacement::EmptyMount => Ok(empty_mount_scene(self.holder.rig(), position)),
         }
         .map_err(|e| DriverError::InvalidSetting {
             device: HAND_ID.to_string(),
@@ -604,8 +617,11 @@ impl TargetHand for SimHand {
                     .map(ProjectorPattern::GrayCode)
                     .collect()
             }
-            // The sphere's photos show the projector's white field.
-            (TargetPlacement::Sphere, _) => vec![ProjectorPattern::Uniform(crate::Level::FULL)],
+            // The sphere's and the card's photos show the projector's
+            // white field.
+            (TargetPlacement::Sphere | TargetPlacement::WhiteCard, _) => {
+                vec![ProjectorPattern::Uniform(crate::Level::FULL)]
+            }
             _ => Vec::new(),
         };
         let mut stage = lock(&self.stage);

@@ -394,6 +394,11 @@ pub enum TargetPlacement {
     /// The light-calibration sphere, somewhere new in the camera's view
     /// with the backlight panel behind it.
     Sphere,
+    /// The white card on the board's mount at the reference placement,
+    /// white side to the camera.
+    WhiteCard,
+    /// Nothing on the mount: the backlight panel seen alone.
+    EmptyMount,
 }
 
 /// Places a calibration target in front of the camera without a person:

@@ -32,6 +32,10 @@ pub struct RigDifference {
     /// Per point light both files name (the flashes): the largest distance
     /// between its two positions over the positions, in the files' units.
     pub flashes: Vec<(String, f64)>,
+    /// Per light both files give an intensity: the largest relative
+    /// difference of the measured from the reference over the positions
+    /// (signed, 0.01 = 1 % brighter).
+    pub intensities: Vec<(String, f64)>,
 }
 
 /// The projector's differences, worst over the positions.
@@ -106,6 +110,7 @@ pub fn compare(measured: &Manifest, reference: &Manifest) -> RigDifference {
         object_px: 0.0,
         projector: None,
         flashes: Vec::new(),
+        intensities: Vec::new(),
     };
     let measured_camera = measured
         .camera
@@ -123,6 +128,19 @@ pub fn compare(measured: &Manifest, reference: &Manifest) -> RigDifference {
             &matscan_scan::PinholeCamera::new(reference.camera, p.camera_to_world),
         ));
         for light in &p.lights {
+            let measured_intensity = q
+                .lights
+                .iter()
+                .find(|l| l.name == light.name)
+                .and_then(|l| l.intensity);
+            if let (Some(m), Some(r)) = (measured_intensity, light.intensity) {
+                let d = m / r - 1.0;
+                match out.intensities.iter_mut().find(|(n, _)| *n == light.name) {
+                    Some((_, worst)) if worst.abs() >= d.abs() => {}
+                    Some((_, worst)) => *worst = d,
+                    None => out.intensities.push((light.name.clone(), d)),
+                }
+            }
             let matscan_scan::LightKind::Point { position: want } = light.kind else {
                 continue;
             };

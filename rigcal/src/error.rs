@@ -71,6 +71,23 @@ pub enum RigcalError {
         path.display()
     )]
     UnknownPosition { path: PathBuf, position: String },
+    /// The white card cannot be measured: out of view, in shadow, clipped.
+    #[error("{}: white card: {reason}", path.display())]
+    WhiteCard { path: PathBuf, reason: String },
+    /// A light's value per second of exposure changes with the exposure:
+    /// the camera does not deliver linear photos.
+    #[error(
+        "{}: the camera's response is not linear: `{light}` reads {readings} of its median \
+         value per second of exposure (at most {limit} off); deliver linear (raw) photos, \
+         or declare the photos' encoding",
+        path.display()
+    )]
+    Nonlinear {
+        path: PathBuf,
+        light: String,
+        readings: String,
+        limit: f64,
+    },
     /// The shots do not determine the camera (all boards parallel, say).
     #[error("the shots do not determine the camera: {0}")]
     Degenerate(String),

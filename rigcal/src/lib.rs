@@ -12,7 +12,9 @@
 //! over a bundle and judges the result; [`projector`] calibrates the
 //! projector as an inverse camera from Gray codes; [`lights`] locates the
 //! flashes from a glossy sphere's highlights (a `matscan-lights/1`
-//! bundle); [`compare`] measures two rig files apart; [`write`](mod@write) publishes
+//! bundle); [`radiometry`] measures each light's intensity from a white
+//! card (a `matscan-white/1` bundle) and checks the camera's linearity;
+//! [`compare`] measures two rig files apart; [`write`](mod@write) publishes
 //! the rig file and the reports.
 //!
 //! Crate choices: `calib-targets` (MIT OR Apache-2.0) for the board: ChESS
@@ -29,7 +31,8 @@
 //! (`vision-calibration`) bring a sparse solver stack that doubles the
 //! workspace's build time on CI's two cores.
 //!
-//! Boundaries: depends on `matscan-scan` only among matscan crates; no
+//! Boundaries: depends on `matscan-scan` and `matscan-bsdf` (the white
+//! card's reflectance, in the estimator's own model) among matscan crates; no
 //! rendering (the simulated rig writes bundles for the tests), no device
 //! I/O (the daemon captures them).
 
@@ -40,6 +43,7 @@ pub mod error;
 pub mod lights;
 pub mod model;
 pub mod projector;
+pub mod radiometry;
 pub mod refine;
 pub mod sheet;
 pub mod write;

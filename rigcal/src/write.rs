@@ -212,3 +212,79 @@ pub fn write_lights(
     write_atomic(&path, moved.to_toml().as_bytes())?;
     Ok(path)
 }
+
+/// The radiometric calibration's report file in the output folder.
+pub const WHITE_REPORT_FILE: &str = "white-report.toml";
+
+/// Writes `rig` with every light's intensity and colour from `radiometry`
+/// as `out_dir/rig.toml`, and `white-report.toml` beside it (each light's
+/// figures and the linearity readings, and the rig file it started from).
+/// Returns the rig file's path.
+pub fn write_radiometry(
+    out_dir: &Path,
+    rig: &Manifest,
+    radiometry: &crate::radiometry::Radiometry,
+    rig_path: &Path,
+) -> Result<PathBuf, RigcalError> {
+    #[derive(serde::Serialize)]
+    struct Level {
+        name: String,
+        intensity: f64,
+        color: [f64; 3],
+        pixels: usize,
+        spread: f64,
+        file: PathBuf,
+    }
+    #[derive(serde::Serialize)]
+    struct Linearity {
+        light: String,
+        /// Each exposure, seconds.
+        exposure_s: Vec<f64>,
+        /// The value per second of exposure at each, over their median.
+        relative: Vec<f64>,
+    }
+    #[derive(serde::Serialize)]
+    struct Report {
+        format: &'static str,
+        rig_from: PathBuf,
+        light: Vec<Level>,
+        linearity: Vec<Linearity>,
+    }
+    std::fs::create_dir_all(out_dir).map_err(|e| {
+        RigcalError::Scan(matscan_scan::ScanError::Io {
+            path: out_dir.to_path_buf(),
+            source: e,
+        })
+    })?;
+    let report = Report {
+        format: "matscan-white-report/1",
+        rig_from: rig_path.to_path_buf(),
+        light: radiometry
+            .lights
+            .iter()
+            .map(|l| Level {
+                name: l.name.clone(),
+                intensity: l.intensity,
+                color: l.color,
+                pixels: l.pixels,
+                spread: l.spread,
+                file: l.file.clone(),
+            })
+            .collect(),
+        linearity: radiometry
+            .linearity
+            .iter()
+            .map(|l| Linearity {
+                light: l.light.clone(),
+                exposure_s: l.readings.iter().map(|r| r.0).collect(),
+                relative: l.readings.iter().map(|r| r.1).collect(),
+            })
+            .collect(),
+    };
+    let text = toml::to_string(&report).unwrap_or_default();
+    write_atomic(&out_dir.join(WHITE_REPORT_FILE), text.as_bytes())?;
+    let path = out_dir.join(RIG_FILE);
+    let measured = crate::radiometry::intensities_in_rig(rig, radiometry);
+    write_atomic(&path, measured.to_toml().as_bytes())?;
+    Ok(path)
+}

@@ -34,6 +34,7 @@ pub mod mesh_io;
 pub mod param;
 pub mod raster;
 pub mod time;
+pub mod white_bundle;
 
 pub use bundle::{Bundle, BundleWriter, TruthImage, TruthKind, TruthMap};
 pub use bvh::{offset_origin, offset_origin_scaled, Bvh, Hit, Ray, RayCaster};

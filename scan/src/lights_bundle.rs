@@ -50,6 +50,9 @@ pub const PROJECTOR_PHOTO: &str = "projector.exr";
 pub const CLIPPED_LEVEL: f32 = 0.995;
 /// The flashes a placement photographs, by their rig names.
 pub const FLASHES: [&str; 2] = ["flash0", "flash1"];
+/// The backlight panel's rig name: a light without a position (the panel
+/// is seen directly), so a rig file from the board alone lacks it.
+pub const BACKLIGHT: &str = "backlight";
 
 /// The file of `light`'s photo in a placement's folder.
 pub fn light_photo(light: &str) -> String {

@@ -356,6 +356,11 @@ impl BoardHolder {
         board_scene(&self.board, self.reference_to_world(), &self.rig)
     }
 
+    /// The rig the board is held before.
+    pub fn rig(&self) -> &Rig {
+        &self.rig
+    }
+
     /// The scene with the board held at a fresh pose before the camera of
     /// rig position `position`, also lit whole by that position's
     /// projector when `in_projector_view`.

@@ -29,3 +29,4 @@ pub mod dataset;
 pub mod render;
 pub mod scene;
 pub mod sphere_target;
+pub mod white_target;

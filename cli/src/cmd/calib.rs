@@ -52,6 +52,12 @@ pub enum CalibAction {
     /// camera of a rig file; writes that rig file with the flashes moved
     /// where they were found, and a report.
     Lights(super::rig_calib::LightsArgs),
+    /// Measure each light's intensity from a radiometric calibration
+    /// bundle (a white card of known reflectance, `calib capture --target
+    /// white`) with the camera and lights of a rig file, and check the
+    /// camera's linearity; writes that rig file with the intensities, and
+    /// a report.
+    Radiometry(super::rig_calib::RadiometryArgs),
     /// Render a calibration bundle on the simulated rig: a printed board
     /// at several poses per position, with the true rig beside it.
     Board(super::rig_calib::BoardArgs),
@@ -72,6 +78,9 @@ pub enum CalibTarget {
     Board,
     /// A glossy sphere of known radius: the flashes' positions.
     Sphere,
+    /// A matte white card of known reflectance on the board's mount: the
+    /// lights' intensities and the camera's linearity.
+    White,
 }
 
 #[derive(Debug, Args)]
@@ -91,6 +100,10 @@ pub struct CaptureArgs {
     /// `[calibration] sphere_placements`).
     #[arg(long)]
     pub placements: Option<usize>,
+    /// Exposures of the white card for the linearity check, 1 to 6
+    /// (default: the daemon's `[calibration] white_exposures`).
+    #[arg(long)]
+    pub exposures: Option<usize>,
     /// The daemon's control socket.
     #[arg(long, default_value = matscan_daemon::service::config::DEFAULT_SOCKET)]
     pub socket: PathBuf,
@@ -103,6 +116,7 @@ fn run_capture(a: &CaptureArgs) -> Result<()> {
     let target = match a.target {
         CalibTarget::Board => "board",
         CalibTarget::Sphere => "sphere",
+        CalibTarget::White => "white",
     };
     let code =
         matscan_daemon::client::calib_capture(&matscan_daemon::client::CalibCaptureOptions {
@@ -111,6 +125,7 @@ fn run_capture(a: &CaptureArgs) -> Result<()> {
             shots: a.shots,
             projector_shots: a.projector_shots,
             placements: a.placements,
+            exposures: a.exposures,
             json: a.json,
         });
     match code {
@@ -132,6 +147,7 @@ pub fn run(a: CalibArgs) -> Result<()> {
         (Some(CalibAction::Capture(c)), _) => run_capture(&c),
         (Some(CalibAction::Rig(r)), _) => super::rig_calib::run_rig(r),
         (Some(CalibAction::Lights(l)), _) => super::rig_calib::run_lights(l),
+        (Some(CalibAction::Radiometry(r)), _) => super::rig_calib::run_radiometry(r),
         (Some(CalibAction::Board(b)), _) => super::rig_calib::run_board(b),
         (
             Some(CalibAction::Compare {

@@ -79,8 +79,9 @@ pub struct EvalArgs {
     /// Estimate with a deliberately wrong rig calibration, to measure what
     /// a calibration error costs: focal=PERCENT (fx and fy scaled),
     /// camera-shift=MM (the camera moved along its x axis),
-    /// camera-turn=DEG (turned about its y axis) or light-shift=MM (every
-    /// flash moved along the camera's x axis), at every position.
+    /// camera-turn=DEG (turned about its y axis), light-shift=MM (every
+    /// flash moved along the camera's x axis) or intensity=PERCENT (every
+    /// light's intensity scaled), at every position.
     #[arg(long, value_name = "KEY=VALUE")]
     pub rig_error: Option<RigError>,
 }

@@ -7,12 +7,14 @@ use clap::Args;
 use matscan_rigcal::compare::compare;
 use matscan_rigcal::lights::calibrate_lights;
 use matscan_rigcal::projector::calibrate_projector;
+use matscan_rigcal::radiometry::calibrate_radiometry;
 use matscan_rigcal::sheet::write_contact_sheet;
-use matscan_rigcal::write::write_lights;
 use matscan_rigcal::write::{write_calibration, REPORT_FILE};
+use matscan_rigcal::write::{write_lights, write_radiometry};
 use matscan_rigcal::{calibrate_camera, Acceptance};
 use matscan_scan::calib_bundle::CalibManifest;
 use matscan_scan::lights_bundle::LightsManifest;
+use matscan_scan::white_bundle::WhiteManifest;
 use matscan_scan::Manifest;
 use matscan_sim::calib_target::{write_board_bundle, BoardBundleOptions, TRUTH_RIG};
 use std::path::{Path, PathBuf};
@@ -38,6 +40,12 @@ pub struct RigArgs {
     /// `calib lights` does, and the rig file gets them.
     #[arg(long)]
     pub spheres: Option<PathBuf>,
+    /// A radiometric calibration bundle (`calib capture --target white`):
+    /// each light's intensity is measured from it with the camera and
+    /// flashes just calibrated, as `calib radiometry` does, and the rig
+    /// file gets them. Needs --spheres (the flashes' positions).
+    #[arg(long, requires = "spheres")]
+    pub white: Option<PathBuf>,
 }
 
 #[derive(Debug, Args)]
@@ -152,6 +160,12 @@ pub fn run_rig(a: RigArgs) -> Result<()> {
                     .with_context(|| format!("writing the lights to {}", out.display()))?;
                 print_lights(&lights);
                 println!("wrote the flashes into {}", written.display());
+                if let Some(white) = &a.white {
+                    let (rig, _) = Manifest::read_rig(&written)
+                        .with_context(|| format!("reading rig file {}", written.display()))?;
+                    let written = radiometry(white, &rig, &written, &out)?;
+                    println!("wrote the intensities into {}", written.display());
+                }
             }
             Ok(())
         }
@@ -233,6 +247,9 @@ pub fn run_compare(measured: &Path, reference: &Path) -> Result<()> {
     for (name, d) in &d.flashes {
         println!("{name}: position {:.3} mm (worst)", 1000.0 * d);
     }
+    for (name, d) in &d.intensities {
+        println!("{name}: intensity {:+.3} % (worst)", 100.0 * d);
+    }
     Ok(())
 }
 
@@ -282,6 +299,78 @@ fn print_lights(lights: &matscan_rigcal::lights::LightCalibration) {
             f.spread_deg
         );
     }
+}
+
+#[derive(Debug, Args)]
+pub struct RadiometryArgs {
+    /// The radiometric calibration bundle folder (`white.toml` and the
+    /// card's photos).
+    pub bundle: PathBuf,
+    /// The rig file whose camera took the photos, with the flashes located
+    /// (as `calib lights` wrote it); its intensities are replaced by the
+    /// ones measured.
+    #[arg(long)]
+    pub rig: PathBuf,
+    /// Output folder for `rig.toml` and `white-report.toml` (default:
+    /// BUNDLE/result).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+/// Measures the intensities from the white-card bundle at `bundle` with
+/// `rig` (read from `rig_path`), prints them and writes the rig file and
+/// report into `out`; returns the rig file's path.
+fn radiometry(bundle: &Path, rig: &Manifest, rig_path: &Path, out: &Path) -> Result<PathBuf> {
+    let manifest = WhiteManifest::read(bundle).with_context(|| {
+        format!(
+            "reading radiometric calibration bundle {}",
+            bundle.display()
+        )
+    })?;
+    let t = Instant::now();
+    let measured = calibrate_radiometry(bundle, &manifest, rig)
+        .with_context(|| format!("measuring the lights from {}", bundle.display()))?;
+    let seconds = t.elapsed().as_secs_f64();
+    for l in &measured.lights {
+        println!(
+            "{}: intensity {:.4}, colour {:.4} {:.4} {:.4}, {} pixels, spread {:.2} % ({})",
+            l.name,
+            l.intensity,
+            l.color[0],
+            l.color[1],
+            l.color[2],
+            l.pixels,
+            100.0 * l.spread,
+            l.file.display()
+        );
+    }
+    for l in &measured.linearity {
+        let readings: Vec<String> = l
+            .readings
+            .iter()
+            .map(|(e, r)| format!("{r:.4} at {e:.4} s"))
+            .collect();
+        println!(
+            "linearity of {}: {} (worst {:.2} %)",
+            l.light,
+            readings.join(", "),
+            100.0 * l.worst()
+        );
+    }
+    let written = write_radiometry(out, rig, &measured, rig_path)
+        .with_context(|| format!("writing the intensities to {}", out.display()))?;
+    println!("{seconds:.2} s");
+    Ok(written)
+}
+
+/// Runs `matscan calib radiometry`.
+pub fn run_radiometry(a: RadiometryArgs) -> Result<()> {
+    let (rig, _) = Manifest::read_rig(&a.rig)
+        .with_context(|| format!("reading rig file {}", a.rig.display()))?;
+    let out = a.out.unwrap_or_else(|| a.bundle.join("result"));
+    let written = radiometry(&a.bundle, &rig, &a.rig, &out)?;
+    println!("wrote {}", written.display());
+    Ok(())
 }
 
 /// Runs `matscan calib lights`.

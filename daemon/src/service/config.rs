@@ -5,7 +5,7 @@
 //!
 //! Boundaries: reads text; opens no device and no socket.
 
-use super::sequencer::{BoardPlan, CalibrationTarget, SpherePlan};
+use super::sequencer::{BoardPlan, CalibrationTarget, SpherePlan, WhitePlan};
 use matscan_drivers::projector::kms::{Gamma, ModeRequest};
 use matscan_drivers::usb::UsbId;
 use matscan_scan::Param;
@@ -81,6 +81,14 @@ pub struct CalibrationSettings {
     pub sphere_radius: Option<f64>,
     /// Places to photograph the sphere at.
     pub sphere_placements: usize,
+    /// The white card's diffuse reflectance (`white_albedo`), from its
+    /// certificate: every intensity the card measures scales with it.
+    pub white_albedo: f64,
+    /// The white card's roughness as the Principled BSDF reads it
+    /// (`white_roughness`; 1 for a matte card).
+    pub white_roughness: f64,
+    /// Exposures of the white card's linearity check (`white_exposures`).
+    pub white_exposures: usize,
 }
 
 impl Default for CalibrationSettings {
@@ -92,6 +100,9 @@ impl Default for CalibrationSettings {
             positions: 1,
             sphere_radius: None,
             sphere_placements: 6,
+            white_albedo: 0.9,
+            white_roughness: 1.0,
+            white_exposures: 3,
         }
     }
 }
@@ -411,6 +422,9 @@ struct RawCalibration {
     positions: Option<usize>,
     sphere_radius: Option<f64>,
     sphere_placements: Option<usize>,
+    white_albedo: Option<f64>,
+    white_roughness: Option<f64>,
+    white_exposures: Option<usize>,
 }
 
 #[derive(Debug, Default, Deserialize)]
@@ -720,6 +734,22 @@ fn calibration(
     }
     let sphere_placements = raw.sphere_placements.unwrap_or(defaults.sphere_placements);
     SpherePlan::new(sphere_placements).map_err(|e| invalid("calibration.sphere_placements", e))?;
+    let white_albedo = raw.white_albedo.unwrap_or(defaults.white_albedo);
+    if !(white_albedo.is_finite() && white_albedo > 0.0 && white_albedo <= 1.0) {
+        return Err(invalid(
+            "calibration.white_albedo",
+            format!("{white_albedo}: expected the white card's reflectance, in (0, 1]"),
+        ));
+    }
+    let white_roughness = raw.white_roughness.unwrap_or(defaults.white_roughness);
+    if !(0.0..=1.0).contains(&white_roughness) {
+        return Err(invalid(
+            "calibration.white_roughness",
+            format!("{white_roughness}: expected a roughness in [0, 1]"),
+        ));
+    }
+    let white_exposures = raw.white_exposures.unwrap_or(defaults.white_exposures);
+    WhitePlan::new(white_exposures).map_err(|e| invalid("calibration.white_exposures", e))?;
     Ok(CalibrationSettings {
         target,
         shots,
@@ -727,6 +757,9 @@ fn calibration(
         positions,
         sphere_radius: raw.sphere_radius,
         sphere_placements,
+        white_albedo,
+        white_roughness,
+        white_exposures,
     })
 }
 
@@ -1148,6 +1181,14 @@ mod tests {
             (
                 "rig = \"simulated\"\n[calibration]\nsphere_placements = 1",
                 "`calibration.sphere_placements`: 1: expected 2 to 64",
+            ),
+            (
+                "rig = \"simulated\"\n[calibration]\nwhite_albedo = 1.2",
+                "`calibration.white_albedo`: 1.2: expected the white card's reflectance",
+            ),
+            (
+                "rig = \"simulated\"\n[calibration]\nwhite_exposures = 9",
+                "`calibration.white_exposures`: 9: expected 1 to 6",
             ),
         ];
         for (text, want) in cases {

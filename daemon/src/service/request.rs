@@ -6,7 +6,7 @@
 //! Boundaries: bookkeeping on [`Shared`]; no I/O.
 
 use super::config::{BusyPolicy, Config};
-use super::sequencer::{BoardPlan, CalibrationPlan, SpherePlan};
+use super::sequencer::{BoardPlan, CalibrationPlan, SpherePlan, WhitePlan};
 use super::state::{Shared, State};
 use serde_json::{json, Value};
 
@@ -71,9 +71,10 @@ pub fn request_capture(
 
 /// Queues a calibration capture of `target`: `board` (a printed
 /// chessboard) with `shots` poses per position and `projector_shots`
-/// Gray-code poses, or `sphere` (the glossy sphere that locates the
-/// flashes) at `placements` places; the configuration's counts where
-/// `None`. Refused like any capture.
+/// Gray-code poses, `sphere` (the glossy sphere that locates the
+/// flashes) at `placements` places, or `white` (the white card that
+/// measures the lights' intensities) at `exposures` exposures; the
+/// configuration's counts where `None`. Refused like any capture.
 pub fn request_calibration(
     shared: &Shared,
     config: &Config,
@@ -93,12 +94,18 @@ pub fn request_calibration(
                 .map(CalibrationPlan::Sphere)
                 .map_err(|e| format!("placements = {e}"))
         }
+        "white" => {
+            let exposures = counts.exposures.unwrap_or(c.white_exposures);
+            WhitePlan::new(exposures)
+                .map(CalibrationPlan::White)
+                .map_err(|e| format!("exposures = {e}"))
+        }
         other => {
             return refusal(
                 code::UNKNOWN_TARGET,
                 format!(
                     "no calibration target `{other}`: expected \"board\" (a printed \
-                     chessboard) or \"sphere\" (a glossy sphere)"
+                     chessboard), \"sphere\" (a glossy sphere) or \"white\" (a white card)"
                 ),
             )
         }
@@ -119,6 +126,7 @@ pub struct CalibrationCounts {
     pub shots: Option<usize>,
     pub projector_shots: Option<usize>,
     pub placements: Option<usize>,
+    pub exposures: Option<usize>,
 }
 
 /// Queues a job with `enqueue` unless the daemon is stopping or the busy

@@ -684,7 +684,7 @@ pub fn mean_abs_difference(a: &RgbRaster, b: &RgbRaster) -> f32 {
 
 pub mod calibration;
 pub use calibration::{
-    BoardPlan, CalibrationOutcome, CalibrationPlan, CalibrationTarget, SpherePlan,
+    BoardPlan, CalibrationOutcome, CalibrationPlan, CalibrationTarget, SpherePlan, WhitePlan,
 };
 
 #[cfg(test)]

@@ -2,7 +2,8 @@
 //! one JSON object per line each way. Requests: `{"cmd":"capture",
 //! "profile":P}` (profile optional), `{"cmd":"calib_capture",
 //! "target":"board","shots":N,"projector_shots":M}` or `{"cmd":
-//! "calib_capture","target":"sphere","placements":N}` (counts optional),
+//! "calib_capture","target":"sphere","placements":N}`, `{"cmd":
+//! "calib_capture","target":"white","exposures":N}` (counts optional),
 //! `{"cmd":"status"}`, `{"cmd":"watch","job":N}`; `watch` streams the job's
 //! events until it has failed or is done (a scan: the worker is done with
 //! it, `finished`). A connection may send several requests in turn.
@@ -29,6 +30,7 @@ pub enum Request {
         shots: Option<usize>,
         projector_shots: Option<usize>,
         placements: Option<usize>,
+        exposures: Option<usize>,
     },
     Status,
     Watch {
@@ -69,6 +71,7 @@ pub fn serve_connection(stream: UnixStream, shared: &Shared, config: &Config) {
                 shots,
                 projector_shots,
                 placements,
+                exposures,
             }) => send(
                 &mut writer,
                 &request_calibration(
@@ -79,6 +82,7 @@ pub fn serve_connection(stream: UnixStream, shared: &Shared, config: &Config) {
                         shots,
                         projector_shots,
                         placements,
+                        exposures,
                     },
                 ),
             ),

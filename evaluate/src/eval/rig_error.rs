@@ -3,9 +3,10 @@
 //! each parameter's MAD takes from it measures what precision the
 //! estimator needs from a rig calibration.
 //!
-//! Light intensities are not among them: the estimator takes each light's
-//! strength from the white reference photographed in the scan, never from
-//! the rig file.
+//! Light intensities are among them: the physical fit reads each light's
+//! `intensity` from the manifest (`intensity x cos / d^2`), so a wrong
+//! intensity scales every radiance it measures; the networks read the white
+//! reference photographed in the scan instead.
 
 use glam::{DMat4, DVec3};
 use matscan_scan::{LightKind, Manifest};
@@ -24,6 +25,9 @@ pub enum RigError {
     /// Every point light moved this many millimetres along the camera's x
     /// axis.
     LightShiftMm(f64),
+    /// Every light's intensity (flashes, projector, backlight) scaled by
+    /// 1 + percent / 100.
+    IntensityPercent(f64),
 }
 
 impl RigError {
@@ -54,6 +58,13 @@ impl RigError {
                     }
                 }
             }
+            RigError::IntensityPercent(p) => {
+                for l in manifest.positions.iter_mut().flat_map(|p| &mut p.lights) {
+                    if let Some(i) = &mut l.intensity {
+                        *i *= 1.0 + p / 100.0;
+                    }
+                }
+            }
         }
     }
 }
@@ -62,7 +73,9 @@ impl FromStr for RigError {
     type Err = String;
 
     fn from_str(s: &str) -> Result<Self, String> {
-        let expected = "expected focal=PERCENT, camera-shift=MM, camera-turn=DEG or light-shift=MM";
+        let expected =
+            "expected focal=PERCENT, camera-shift=MM, camera-turn=DEG, light-shift=MM or \
+             intensity=PERCENT";
         let (key, value) = s
             .split_once('=')
             .ok_or_else(|| format!("{s:?}: {expected}"))?;
@@ -77,6 +90,7 @@ impl FromStr for RigError {
             "camera-shift" => Ok(RigError::CameraShiftMm(v)),
             "camera-turn" => Ok(RigError::CameraTurnDeg(v)),
             "light-shift" => Ok(RigError::LightShiftMm(v)),
+            "intensity" => Ok(RigError::IntensityPercent(v)),
             _ => Err(format!("{s:?}: {expected}")),
         }
     }
@@ -89,6 +103,7 @@ impl fmt::Display for RigError {
             RigError::CameraShiftMm(v) => write!(f, "camera-shift={v}"),
             RigError::CameraTurnDeg(v) => write!(f, "camera-turn={v}"),
             RigError::LightShiftMm(v) => write!(f, "light-shift={v}"),
+            RigError::IntensityPercent(v) => write!(f, "intensity={v}"),
         }
     }
 }
@@ -122,7 +137,7 @@ mod tests {
                         position: DVec3::new(0.1, 0.0, -1.5),
                     },
                     color: [1.0; 3],
-                    intensity: None,
+                    intensity: Some(10.0),
                 }],
                 captures: Vec::new(),
                 white_reference_mask: None,
@@ -159,6 +174,10 @@ mod tests {
             panic!("point lights");
         };
         assert!(((*p - *q).length() - 0.01).abs() < 1e-12);
+        let mut m = before.clone();
+        "intensity=-2".parse::<RigError>().unwrap().apply(&mut m);
+        let i = m.positions[0].lights[0].intensity.unwrap();
+        assert!((i - 9.8).abs() < 1e-12, "{i}");
     }
 
     #[test]

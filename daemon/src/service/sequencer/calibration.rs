@@ -36,6 +36,7 @@ use matscan_scan::lights_bundle::{
     LIGHTS_MANIFEST, PROJECTOR_PHOTO,
 };
 use matscan_scan::raster::RgbRaster;
+use matscan_scan::white_bundle::{WhiteCard, WhiteManifest, WhitePhoto, WHITE_MANIFEST};
 use matscan_scan::Precision;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -99,6 +100,29 @@ impl SpherePlan {
     }
 }
 
+/// How a radiometric calibration photographs the white card: every light
+/// alone at one exposure, and the first flash at `exposures` exposures in
+/// all (each half the last) for the camera's linearity.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct WhitePlan {
+    pub exposures: usize,
+}
+
+impl WhitePlan {
+    /// Most exposures: the last is 1/32 of the first.
+    pub const MAX_EXPOSURES: usize = 6;
+
+    /// The plan, unless `exposures` is outside 1 to
+    /// [`WhitePlan::MAX_EXPOSURES`] (1: no linearity check).
+    pub fn new(exposures: usize) -> Result<WhitePlan, String> {
+        let max = Self::MAX_EXPOSURES;
+        (1..=max)
+            .contains(&exposures)
+            .then_some(WhitePlan { exposures })
+            .ok_or_else(|| format!("{exposures}: expected 1 to {max} exposures of the white card"))
+    }
+}
+
 /// What a calibration capture photographs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum CalibrationPlan {
@@ -106,6 +130,8 @@ pub enum CalibrationPlan {
     Board(BoardPlan),
     /// The glossy sphere: the flashes.
     Sphere(SpherePlan),
+    /// The white card: the lights' intensities.
+    White(WhitePlan),
 }
 
 impl CalibrationPlan {
@@ -114,6 +140,7 @@ impl CalibrationPlan {
         match self {
             CalibrationPlan::Board(_) => "board",
             CalibrationPlan::Sphere(_) => "sphere",
+            CalibrationPlan::White(_) => "white",
         }
     }
 
@@ -125,6 +152,9 @@ impl CalibrationPlan {
             }),
             CalibrationPlan::Sphere(s) => serde_json::json!({
                 "target": "sphere", "placements": s.placements,
+            }),
+            CalibrationPlan::White(w) => serde_json::json!({
+                "target": "white", "exposures": w.exposures,
             }),
         }
     }
@@ -343,17 +373,11 @@ impl RigDevices {
         let Some(geometry) = self.geometry.positions.first().cloned() else {
             return Err(CaptureError::CannotMove { positions: 0 });
         };
-        let lights: Vec<LightId> = [LightId::Backlight]
-            .into_iter()
-            .chain(FLASHES.iter().filter_map(|f| LightId::from_name(f)))
-            .collect();
         // The projector's highlight centres the sphere (its pose is
         // calibrated by the board): photographed where it can show white.
-        let with_projector = self
-            .projector
-            .as_ref()
-            .is_some_and(|p| p.can_show(&ProjectorPattern::Uniform(Level::FULL)));
-        let total = plan.placements * (1 + lights.len() + usize::from(with_projector));
+        let shots = self.lit_shots();
+        // Ambient and backlight besides.
+        let total = plan.placements * (2 + shots.len());
         let pending = PendingDir::create(target)?;
         self.start_dark()?;
         let mut placements = Vec::new();
@@ -369,49 +393,16 @@ impl RigDevices {
             self.present(0, TargetPlacement::Sphere, &task, settings, stop, prompt)?;
             let folder = PathBuf::from(&geometry.name).join(format!("sphere-{k:02}"));
             create_dir(&pending.path().join(&folder))?;
-            // One exposure for the place's photos, short enough that no
-            // light's highlight clips: a glossy sphere mirrors a flash far
-            // brighter than anything the scans see. A pixel clipped in
-            // ambient too (a lamp in the room) is not the lights' doing.
-            let mut scale = 1.0f32;
-            let (ambient, flashes) = loop {
-                self.lock_exposure(&geometry.name, geometry.exposure_s * scale)?;
-                self.camera.scene_changed(monotonic_now());
-                let ambient = self.camera.capture()?.rgb;
-                let mut frames = Vec::new();
-                for &l in lights.iter().filter(|&&l| l != LightId::Backlight) {
-                    frames.push((light_photo(l.name()), self.photo_with(&[l], stop)?));
-                }
-                if with_projector {
-                    let full = ProjectorPattern::Uniform(Level::FULL);
-                    frames.push((PROJECTOR_PHOTO.to_string(), self.with_projector(full)?));
-                }
-                let clipped = |v: &[f32; 3]| v.iter().any(|&c| c >= CLIPPED_LEVEL);
-                let lit_clips = frames.iter().any(|(_, f)| {
-                    f.data
-                        .iter()
-                        .zip(&ambient.data)
-                        .any(|(p, a)| clipped(p) && !clipped(a))
-                });
-                if !lit_clips {
-                    break (ambient, frames);
-                }
-                if scale < 1.0 / 4096.0 {
-                    return Err(CaptureError::HighlightClipped {
-                        device: self.camera.id().to_string(),
-                        position: geometry.name.clone(),
-                    });
-                }
-                scale *= 0.25;
-            };
+            let (_, ambient, flashes) =
+                self.unclipped(&geometry.name, geometry.exposure_s, &shots, stop)?;
             let backlit = self.photo_with(&[LightId::Backlight], stop)?;
-            let shots = [
+            let photos = [
                 (AMBIENT_PHOTO.to_string(), ambient),
                 (BACKLIGHT_PHOTO.to_string(), backlit),
             ]
             .into_iter()
             .chain(flashes);
-            for (file, rgb) in shots {
+            for (file, rgb) in photos {
                 let name = folder.join(&file);
                 self.write_photo(pending.path(), &name, &rgb)?;
                 done += 1;
@@ -440,6 +431,249 @@ impl RigDevices {
             photos: total,
             seconds: start.elapsed().as_secs_f64(),
         })
+    }
+
+    /// Photographs the white card on the board's mount under every light
+    /// alone, then the first flash at `plan`'s shorter exposures, and
+    /// publishes the radiometric calibration bundle at `target` (which
+    /// must not exist); as [`RigDevices::capture_calibration`]. `albedo`
+    /// and `roughness` are the card's, as the configuration gives them.
+    #[allow(clippy::too_many_arguments)]
+    pub fn capture_white(
+        &mut self,
+        plan: WhitePlan,
+        albedo: f64,
+        roughness: f64,
+        target: &Path,
+        stop: &dyn Fn() -> bool,
+        settings: &RunSettings,
+        prompt: &mut dyn FnMut(&str),
+        progress: &mut dyn FnMut(Progress),
+    ) -> Result<CalibrationOutcome, CaptureError> {
+        let result = self.white_inner(
+            plan, albedo, roughness, target, stop, settings, prompt, progress,
+        );
+        self.leave_dark("calibration");
+        result
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn white_inner(
+        &mut self,
+        plan: WhitePlan,
+        albedo: f64,
+        roughness: f64,
+        target: &Path,
+        stop: &dyn Fn() -> bool,
+        settings: &RunSettings,
+        prompt: &mut dyn FnMut(&str),
+        progress: &mut dyn FnMut(Progress),
+    ) -> Result<CalibrationOutcome, CaptureError> {
+        let start = Instant::now();
+        let board = self
+            .calibration_target
+            .clone()
+            .ok_or(CaptureError::NoCalibrationTarget)?;
+        let card = WhiteCard::on_board(&board.board, board.reference_to_world, albedo, roughness);
+        let Some(geometry) = self.geometry.positions.first().cloned() else {
+            return Err(CaptureError::CannotMove { positions: 0 });
+        };
+        let panel = [LitShot::Light(LightId::Backlight)];
+        let shots = self.lit_shots();
+        // The panel and its ambient, the card's ambient and lights, and the
+        // first flash with its ambient at each shorter exposure.
+        let total = 2 + 1 + shots.len() + 2 * (plan.exposures - 1);
+        let pending = PendingDir::create(target)?;
+        self.start_dark()?;
+        let folder = PathBuf::from(&geometry.name);
+        create_dir(&pending.path().join(&folder))?;
+        let mut photos = Vec::new();
+        let mut done = 0;
+        let mut keep = |this: &Self,
+                        name: String,
+                        rgb: &RgbRaster,
+                        exposure_s: f32,
+                        lights: Vec<String>,
+                        ambient: Option<&str>|
+         -> Result<(), CaptureError> {
+            let file = folder.join(&name);
+            this.write_photo(pending.path(), &file, rgb)?;
+            done += 1;
+            progress(Progress {
+                done,
+                total,
+                what: file.display().to_string(),
+            });
+            photos.push(WhitePhoto {
+                file,
+                exposure_s: f64::from(exposure_s),
+                lights,
+                ambient: ambient.map(|a| folder.join(a)),
+            });
+            Ok(())
+        };
+        // The panel first, with the mount empty: a card before it lights
+        // it back and brightens it by several per cent.
+        let task = format!(
+            "take everything off the mount: the backlight panel is photographed alone from {}",
+            geometry.name
+        );
+        self.present(
+            0,
+            TargetPlacement::EmptyMount,
+            &task,
+            settings,
+            stop,
+            prompt,
+        )?;
+        let (exposure, ambient, lit) =
+            self.unclipped(&geometry.name, geometry.exposure_s, &panel, stop)?;
+        keep(
+            self,
+            PANEL_AMBIENT.into(),
+            &ambient,
+            exposure,
+            Vec::new(),
+            None,
+        )?;
+        for ((file, rgb), shot) in lit.iter().zip(&panel) {
+            let lights = vec![shot.light_name()];
+            keep(
+                self,
+                file.clone(),
+                rgb,
+                exposure,
+                lights,
+                Some(PANEL_AMBIENT),
+            )?;
+        }
+        let task = format!(
+            "put the white card on the board's mount at its reference placement, white \
+             side to the camera at {}, nothing between it and the lights",
+            geometry.name
+        );
+        self.present(0, TargetPlacement::WhiteCard, &task, settings, stop, prompt)?;
+        let (exposure, ambient, lit) =
+            self.unclipped(&geometry.name, geometry.exposure_s, &shots, stop)?;
+        keep(
+            self,
+            AMBIENT_PHOTO.into(),
+            &ambient,
+            exposure,
+            Vec::new(),
+            None,
+        )?;
+        for ((file, rgb), shot) in lit.iter().zip(&shots) {
+            let lights = vec![shot.light_name()];
+            keep(
+                self,
+                file.clone(),
+                rgb,
+                exposure,
+                lights,
+                Some(AMBIENT_PHOTO),
+            )?;
+        }
+        // The linearity check: the first flash at each shorter exposure,
+        // with its own ambient.
+        if let Some(flash) = FLASHES.iter().find_map(|f| LightId::from_name(f)) {
+            for k in 1..plan.exposures {
+                let e = exposure / (1u32 << k) as f32;
+                self.lock_exposure(&geometry.name, e)?;
+                self.camera.scene_changed(monotonic_now());
+                let ambient = self.camera.capture()?.rgb;
+                let rgb = self.photo_with(&[flash], stop)?;
+                let ambient_file = format!("ambient-e{k}.exr");
+                keep(self, ambient_file.clone(), &ambient, e, Vec::new(), None)?;
+                let lights = vec![flash.name().to_string()];
+                let file = format!("{}-e{k}.exr", flash.name());
+                keep(self, file, &rgb, e, lights, Some(&ambient_file))?;
+            }
+        }
+        let manifest = WhiteManifest {
+            units: "m".into(),
+            position: geometry.name.clone(),
+            card,
+            photos,
+        };
+        let bundle = self.publish(pending, WHITE_MANIFEST, &manifest.to_toml())?;
+        Ok(CalibrationOutcome {
+            bundle,
+            positions: 1,
+            shots: 1,
+            graycode_shots: 0,
+            photos: total,
+            seconds: start.elapsed().as_secs_f64(),
+        })
+    }
+
+    /// The lights a light calibration photographs one at a time before
+    /// its target: each flash, and the projector where it can show uniform
+    /// white.
+    fn lit_shots(&self) -> Vec<LitShot> {
+        let mut shots: Vec<LitShot> = FLASHES
+            .iter()
+            .filter_map(|f| LightId::from_name(f))
+            .map(LitShot::Light)
+            .collect();
+        if self
+            .projector
+            .as_ref()
+            .is_some_and(|p| p.can_show(&ProjectorPattern::Uniform(Level::FULL)))
+        {
+            shots.push(LitShot::Projector);
+        }
+        shots
+    }
+
+    /// The ambient photo and one photo per shot in `shots`, all at one
+    /// exposure: `exposure_s` or shorter, until no light clips a pixel
+    /// (a glossy sphere mirrors a flash far brighter than anything the
+    /// scans see). A pixel clipped in ambient too (a lamp in the room) is
+    /// not the lights' doing. Returns the exposure, the ambient photo and
+    /// each shot's file name and photo.
+    #[allow(clippy::type_complexity)]
+    fn unclipped(
+        &mut self,
+        position: &str,
+        exposure_s: f32,
+        shots: &[LitShot],
+        stop: &dyn Fn() -> bool,
+    ) -> Result<(f32, RgbRaster, Vec<(String, RgbRaster)>), CaptureError> {
+        let mut scale = 1.0f32;
+        loop {
+            let exposure = exposure_s * scale;
+            self.lock_exposure(position, exposure)?;
+            self.camera.scene_changed(monotonic_now());
+            let ambient = self.camera.capture()?.rgb;
+            let mut frames = Vec::new();
+            for shot in shots {
+                let frame = match shot {
+                    LitShot::Light(l) => self.photo_with(&[*l], stop)?,
+                    LitShot::Projector => {
+                        self.with_projector(ProjectorPattern::Uniform(Level::FULL))?
+                    }
+                };
+                frames.push((shot.file(), frame));
+            }
+            let clipped = |v: &[f32; 3]| v.iter().any(|&c| c >= CLIPPED_LEVEL);
+            let lit_clips = frames.iter().any(|(_, f)| {
+                f.data
+                    .iter()
+                    .zip(&ambient.data)
+                    .any(|(p, a)| clipped(p) && !clipped(a))
+            });
+            if !lit_clips {
+                return Ok((exposure, ambient, frames));
+            }
+            if scale < 1.0 / 4096.0 {
+                return Err(CaptureError::HighlightClipped {
+                    device: self.camera.id().to_string(),
+                    position: position.to_string(),
+                });
+            }
+            scale *= 0.25;
+        }
     }
 
     /// Writes the bundle's manifest `file` (with a simulated rig's truth
@@ -577,6 +811,36 @@ impl RigDevices {
             disk.reserve(&path, bytes)?;
         }
         Ok(())
+    }
+}
+
+/// The ambient photo of the empty mount, which the backlight panel's photo
+/// is read against.
+const PANEL_AMBIENT: &str = "ambient-panel.exr";
+
+/// One light photographed alone in a light calibration.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum LitShot {
+    Light(LightId),
+    /// The projector showing uniform white.
+    Projector,
+}
+
+impl LitShot {
+    /// The light's name in the rig file.
+    fn light_name(&self) -> String {
+        match self {
+            LitShot::Light(l) => l.name().to_string(),
+            LitShot::Projector => "projector".to_string(),
+        }
+    }
+
+    /// Its photo's file name.
+    fn file(&self) -> String {
+        match self {
+            LitShot::Light(l) => light_photo(l.name()),
+            LitShot::Projector => PROJECTOR_PHOTO.to_string(),
+        }
     }
 }
 

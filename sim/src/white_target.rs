@@ -1,0 +1,92 @@
+//! The radiometric calibration target on the simulated rig: a matte white
+//! card of known reflectance at a known pose (where the printed board's
+//! reference placement stands), rendered by the same path tracer as the
+//! scans, in the same Principled BSDF the radiometry models it with.
+//!
+//! The mount left empty (the backlight panel photographed alone) is the
+//! card put away behind the panel: the renderer needs an object, and one
+//! behind the panel neither shows nor lights anything the camera sees.
+//!
+//! Boundaries: the scenes only; the capture path renders them.
+
+use crate::scene::{EnvSource, EnvSpec, MaterialField, Rig, Scene, Texture};
+use glam::{DMat4, DVec3, Vec2, Vec3};
+use matscan_scan::white_bundle::WhiteCard;
+use matscan_scan::Mesh;
+
+/// The simulated operator's card: its reflectance, which the daemon's
+/// `[calibration] white_albedo` and `white_roughness` default to.
+pub const CARD_ALBEDO: f64 = 0.9;
+pub const CARD_ROUGHNESS: f64 = 1.0;
+
+/// The scene of an empty mount at rig position `position`: a small card
+/// half a metre behind that position's backlight panel, out of the
+/// camera's sight.
+pub fn empty_mount_scene(rig: &Rig, position: usize) -> Scene {
+    let hidden = rig
+        .positions
+        .get(position)
+        .or(rig.positions.first())
+        .map(|p| {
+            let b = &p.backlight;
+            // The emitting side, which faces the camera, is half_u x half_v.
+            let towards_camera = b.half_u.cross(b.half_v).as_dvec3().normalize_or_zero();
+            b.center.as_dvec3() - 0.5 * towards_camera
+        })
+        .unwrap_or(DVec3::new(0.0, 0.0, 100.0));
+    let card = WhiteCard {
+        albedo: CARD_ALBEDO,
+        roughness: CARD_ROUGHNESS,
+        size: [0.05, 0.05],
+        card_to_world: DMat4::from_translation(hidden),
+    };
+    white_card_scene(&card, rig)
+}
+
+/// The card's scene: `card` (its reflectance, size and pose) under `rig`.
+pub fn white_card_scene(card: &WhiteCard, rig: &Rig) -> Scene {
+    let [w, h] = card.size;
+    let corner = |x: f64, y: f64| {
+        card.card_to_world
+            .transform_point3(DVec3::new(x, y, 0.0))
+            .as_vec3()
+    };
+    let albedo = card.albedo.clamp(0.0, 1.0) as f32;
+    Scene {
+        name: "white card".into(),
+        kind: "white-card".into(),
+        geometry: "card".into(),
+        mesh: Mesh {
+            positions: vec![
+                corner(0.0, 0.0),
+                corner(w, 0.0),
+                corner(w, h),
+                corner(0.0, h),
+            ],
+            normals: None,
+            uvs: Some(vec![
+                Vec2::new(0.0, 1.0),
+                Vec2::new(1.0, 1.0),
+                Vec2::new(1.0, 0.0),
+                Vec2::new(0.0, 0.0),
+            ]),
+            // Wound so the geometric normal faces -z, the white side (as
+            // the board's print).
+            triangles: vec![[0, 2, 1], [0, 3, 2]],
+        },
+        material: MaterialField {
+            basecolor: Texture::Constant([albedo; 3]),
+            roughness: Texture::Constant(card.roughness.clamp(0.0, 1.0) as f32),
+            metallic: Texture::Constant(0.0),
+            transmission: Texture::Constant(0.0),
+            subsurface: Texture::Constant(0.0),
+            subsurface_radius: Vec3::splat(0.01),
+        },
+        environment: EnvSpec {
+            source: EnvSource::Procedural { seed: 7 },
+            strength: 0.3,
+            rotation: 0.0,
+        },
+        rig: rig.clone(),
+    }
+}
