@@ -121,6 +121,7 @@ fn config(a: &DemoArgs) -> Result<Config> {
             positions: a.positions,
             samples: a.samples,
             frame,
+            rig_from: None,
             turntable: true,
             footswitch: None,
             faults: FaultConfig::default(),

@@ -84,6 +84,12 @@ pub struct EvalArgs {
     /// light's intensity scaled), at every position.
     #[arg(long, value_name = "KEY=VALUE")]
     pub rig_error: Option<RigError>,
+    /// Estimate with calibrated rig files in place of each scan's rig: a
+    /// rig file for every scan, or a folder with `<scan folder
+    /// name>/rig.toml` per scan (as `matscan calib rig --out` writes it):
+    /// what a rig calibrated from photos costs against the true rig.
+    #[arg(long, value_name = "PATH")]
+    pub rig_from: Option<PathBuf>,
 }
 
 /// Runs `matscan eval`: prints the tables, writes the CSV.
@@ -102,6 +108,7 @@ pub fn run(a: &EvalArgs) -> Result<()> {
         fit_light: a.fit_light,
         oracles: a.oracle.clone(),
         rig_error: a.rig_error,
+        rig_from: a.rig_from.clone(),
     })?;
     print!("{}", report.table);
     if let Some(path) = &a.csv {

@@ -330,6 +330,11 @@ pub struct SimulatedRigConfig {
     /// up a real rig (`matscan_sim::scene::frame_object`). `None`: the
     /// thesis's random aim and focal length, as the data sets use.
     pub frame: Option<f64>,
+    /// A simulated scan (its folder) or rig file whose camera, poses and
+    /// lights replace the generated rig (`rig_from`): calibration photos of
+    /// a data set's rig, to calibrate it as a user would. Its aim is kept
+    /// (no framing) and its camera scaled to `size`.
+    pub rig_from: Option<PathBuf>,
     /// With a turntable the sequencer turns the object; without one it
     /// waits for the operator's footswitch press between positions.
     pub turntable: bool,
@@ -481,6 +486,7 @@ struct RawSimulated {
     positions: Option<usize>,
     samples: Option<u32>,
     frame: Option<f64>,
+    rig_from: Option<PathBuf>,
     turntable: Option<bool>,
     footswitch: Option<PathBuf>,
     #[serde(default)]
@@ -1001,6 +1007,17 @@ fn simulated(
     }
     let frame =
         framing(raw.frame.unwrap_or(DEFAULT_FRAME)).map_err(|e| invalid("simulated.frame", e))?;
+    let frame =
+        match (&raw.rig_from, raw.frame) {
+            (None, _) => frame,
+            (Some(_), None | Some(0.0)) => None,
+            (Some(_), Some(f)) => return Err(invalid(
+                "simulated.frame",
+                format!(
+                    "{f}: a rig taken from a scan (rig_from) keeps its own aim; leave frame out"
+                ),
+            )),
+        };
     let mut dead_lights = Vec::new();
     for name in &raw.faults.dead_lights {
         let light = matscan_drivers::LightId::from_name(name).ok_or_else(|| {
@@ -1019,6 +1036,7 @@ fn simulated(
         positions,
         samples,
         frame,
+        rig_from: raw.rig_from,
         turntable: raw.turntable.unwrap_or(true),
         footswitch: match raw.footswitch {
             Some(p) if p.as_os_str().is_empty() => {
@@ -1189,6 +1207,10 @@ mod tests {
             (
                 "rig = \"simulated\"\n[calibration]\nwhite_exposures = 9",
                 "`calibration.white_exposures`: 9: expected 1 to 6",
+            ),
+            (
+                "rig = \"simulated\"\n[simulated]\nrig_from = \"scan\"\nframe = 0.8",
+                "`simulated.frame`: 0.8: a rig taken from a scan (rig_from) keeps its own aim",
             ),
         ];
         for (text, want) in cases {

@@ -43,7 +43,8 @@ pub fn open_for_calibration(
 
 /// The scene the simulated rig of `c` photographs: generated from its
 /// seed, kind and geometry, its cameras framed on the object where `c`
-/// asks for it.
+/// asks for it, or under the rig of `c.rig_from` (a simulated scan's, its
+/// camera scaled to the photo size).
 pub fn simulated_scene(c: &SimulatedRigConfig) -> Result<Scene, HardwareError> {
     let mut scene = generate(&SceneOptions {
         seed: c.seed,
@@ -58,6 +59,33 @@ pub fn simulated_scene(c: &SimulatedRigConfig) -> Result<Scene, HardwareError> {
     });
     if let Some(fill) = c.frame {
         frame_object(&mut scene, fill)?;
+    }
+    if let Some(path) = &c.rig_from {
+        let file = if path.is_dir() {
+            path.join(matscan_scan::bundle::MANIFEST_FILE)
+        } else {
+            path.clone()
+        };
+        let (manifest, _) = matscan_scan::Manifest::read_rig(&file).map_err(|source| {
+            HardwareError::Calibration {
+                path: file.clone(),
+                source,
+            }
+        })?;
+        let mut rig = matscan_sim::scene::rig_from_manifest(&manifest).map_err(|message| {
+            HardwareError::Invalid {
+                path: file.clone(),
+                message,
+            }
+        })?;
+        if rig.intrinsics.width != rig.intrinsics.height {
+            return Err(HardwareError::Invalid {
+                path: file,
+                message: "the simulated rig's photos are square; this camera is not".into(),
+            });
+        }
+        rig.intrinsics = rig.intrinsics.scaled_to(c.size, c.size);
+        scene.rig = rig;
     }
     Ok(scene)
 }

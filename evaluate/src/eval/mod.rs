@@ -34,6 +34,7 @@ pub mod independent;
 pub mod options;
 pub mod report;
 pub mod rig_error;
+pub mod rig_from;
 pub mod tables;
 pub mod texture;
 pub mod truth;

@@ -40,6 +40,9 @@ pub struct EvalOptions {
     /// A deliberate calibration error applied to every scan before it is
     /// estimated (the chained estimate only).
     pub rig_error: Option<super::rig_error::RigError>,
+    /// Calibrated rig files that replace each scan's rig before it is
+    /// estimated (the chained estimate only; see [`super::rig_from`]).
+    pub rig_from: Option<std::path::PathBuf>,
 }
 
 impl EvalOptions {

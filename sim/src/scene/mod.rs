@@ -32,4 +32,4 @@ pub use model::{
     Backlight, EnvSource, EnvSpec, MaterialField, PointLight, Projector, Rig, RigPosition, Scene,
     SceneError, TexelMix, Texture,
 };
-pub use rig::{random_rig, rig_to_manifest_lights, RigOptions};
+pub use rig::{random_rig, rig_from_manifest, rig_to_manifest_lights, RigOptions};

@@ -61,7 +61,7 @@ use super::color::hsv_to_rgb;
 use super::model::{Backlight, PointLight, Projector, Rig, RigPosition};
 use glam::{DMat3, DMat4, DQuat, DVec3, Vec3};
 use matscan_scan::camera::{look_at, Intrinsics, PinholeCamera};
-use matscan_scan::{Light, LightKind};
+use matscan_scan::{Light, LightKind, Manifest};
 use rand::Rng;
 use rand_pcg::Pcg64;
 
@@ -333,6 +333,84 @@ pub fn rig_to_manifest_lights(position: &RigPosition) -> Vec<Light> {
     lights
 }
 
+/// The rig a scan manifest describes (a simulated scan's, or a rig file
+/// with its exposure), so that calibration targets can be photographed
+/// under exactly that rig: its camera, each position's pose, flashes and
+/// projector, and a backlight panel of the manifest's radiance 1.1 units
+/// beyond the origin on the camera's axis, facing it (the manifest does
+/// not say where the panel stands; calibration measures only its
+/// radiance). Every position takes the exposure of its first capture (1 s
+/// without captures). An error names the position and light that is
+/// missing or has no intensity.
+pub fn rig_from_manifest(manifest: &Manifest) -> Result<Rig, String> {
+    let mut positions = Vec::new();
+    for p in &manifest.positions {
+        let intensity = |l: &Light| {
+            l.intensity
+                .filter(|i| i.is_finite() && *i >= 0.0)
+                .map(|i| i as f32)
+                .ok_or_else(|| format!("position {}: light `{}` has no intensity", p.name, l.name))
+        };
+        let colour = |l: &Light| Vec3::from_array(l.color.map(|c| c as f32));
+        let mut flashes = Vec::new();
+        let mut projector = None;
+        let mut backlight = None;
+        for l in &p.lights {
+            match &l.kind {
+                LightKind::Point { position } => flashes.push(PointLight {
+                    name: l.name.clone(),
+                    position: position.as_vec3(),
+                    color: colour(l),
+                    intensity: intensity(l)?,
+                }),
+                LightKind::Projector {
+                    projector_to_world,
+                    intrinsics,
+                } => {
+                    projector = Some(Projector {
+                        name: l.name.clone(),
+                        projector_to_world: *projector_to_world,
+                        intrinsics: *intrinsics,
+                        color: colour(l),
+                        intensity: intensity(l)?,
+                    })
+                }
+                LightKind::Backlight => {
+                    let axes = DMat3::from_mat4(p.camera_to_world);
+                    let (right, down, forward) = (axes.x_axis, axes.y_axis, axes.z_axis);
+                    let eye = p.camera_to_world.w_axis.truncate();
+                    let centre = eye + forward * (eye.length() + 1.1);
+                    backlight = Some(Backlight {
+                        name: l.name.clone(),
+                        center: centre.as_vec3(),
+                        half_u: (right * BACKLIGHT_HALF_SIZE).as_vec3(),
+                        half_v: (-down * BACKLIGHT_HALF_SIZE).as_vec3(),
+                        radiance: colour(l) * intensity(l)?,
+                        albedo: BACKLIGHT_ALBEDO,
+                    })
+                }
+            }
+        }
+        let missing = |what: &str| format!("position {}: no {what} light", p.name);
+        let exposure_s = p.captures.first().map_or(1.0, |c| c.exposure_s as f32);
+        positions.push(RigPosition {
+            name: p.name.clone(),
+            camera_to_world: p.camera_to_world,
+            flashes,
+            projector: projector.ok_or_else(|| missing("projector"))?,
+            backlight: backlight.ok_or_else(|| missing("backlight"))?,
+            exposure_s,
+        });
+    }
+    if positions.is_empty() {
+        return Err("the manifest has no position".into());
+    }
+    Ok(Rig {
+        intrinsics: manifest.camera,
+        positions,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -574,5 +652,40 @@ mod tests {
         assert_eq!(r.positions.len(), 1);
         assert_eq!((r.intrinsics.width, r.intrinsics.height), (1, 1));
         assert!(r.positions[0].exposure_s.is_finite() && r.positions[0].exposure_s > 0.0);
+    }
+
+    #[test]
+    fn a_rig_read_back_from_its_manifest_has_its_camera_poses_and_lights() {
+        let rig = &rigs()[0];
+        let manifest = Manifest {
+            units: "m".into(),
+            name: "rig".into(),
+            created: String::new(),
+            camera: rig.intrinsics,
+            positions: rig
+                .positions
+                .iter()
+                .map(|p| matscan_scan::Position {
+                    name: p.name.clone(),
+                    camera_to_world: p.camera_to_world,
+                    lights: rig_to_manifest_lights(p),
+                    captures: Vec::new(),
+                    white_reference_mask: None,
+                })
+                .collect(),
+        };
+        let back = rig_from_manifest(&manifest).unwrap();
+        assert_eq!(back.intrinsics, rig.intrinsics);
+        for (b, p) in back.positions.iter().zip(&rig.positions) {
+            assert_eq!(b.camera_to_world, p.camera_to_world);
+            assert_eq!(b.flashes, p.flashes);
+            assert_eq!(b.projector, p.projector);
+            let r = b.backlight.radiance - p.backlight.radiance;
+            assert!(r.abs().max_element() < 1e-6, "{r}");
+        }
+        let mut dark = manifest.clone();
+        dark.positions[0].lights[1].intensity = None;
+        let e = rig_from_manifest(&dark).unwrap_err();
+        assert!(e.contains("p0") && e.contains("flash1"), "{e}");
     }
 }

@@ -17,6 +17,7 @@ fn sim(positions: usize, turntable: bool, faults: FaultConfig) -> RigChoice {
         positions,
         samples: 1,
         frame: None,
+        rig_from: None,
         turntable,
         footswitch: None,
         faults,
