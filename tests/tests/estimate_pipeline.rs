@@ -541,6 +541,16 @@ fn the_fit_runs_only_the_networks_it_does_not_replace() {
         assert!(entry.model.is_none(), "{kind:?}");
     }
     assert_eq!(result.fit.as_ref().map(|f| f.method), Some(Method::Fit));
+    // The scale the fit measured against, with the numbers themselves.
+    let scale = result.fit.map(|f| f.scale).unwrap_or_default();
+    let manifest = matscan_scan::Bundle::open(&scan).unwrap().manifest;
+    let flash = manifest.positions[0]
+        .light("flash0")
+        .and_then(|l| l.intensity);
+    assert!(
+        scale.contains(&format!("flash0 {:.6}", flash.unwrap_or(f64::NAN))),
+        "{scale}"
+    );
 }
 
 #[test]

@@ -1007,17 +1007,18 @@ fn simulated(
     }
     let frame =
         framing(raw.frame.unwrap_or(DEFAULT_FRAME)).map_err(|e| invalid("simulated.frame", e))?;
-    let frame =
-        match (&raw.rig_from, raw.frame) {
-            (None, _) => frame,
-            (Some(_), None | Some(0.0)) => None,
-            (Some(_), Some(f)) => return Err(invalid(
+    let frame = match (&raw.rig_from, raw.frame) {
+        (None, _) => frame,
+        (Some(_), None | Some(0.0)) => None,
+        (Some(_), Some(f)) => {
+            return Err(invalid(
                 "simulated.frame",
                 format!(
                     "{f}: a rig taken from a scan (rig_from) keeps its own aim; leave frame out"
                 ),
-            )),
-        };
+            ))
+        }
+    };
     let mut dead_lights = Vec::new();
     for name in &raw.faults.dead_lights {
         let light = matscan_drivers::LightId::from_name(name).ok_or_else(|| {

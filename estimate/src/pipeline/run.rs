@@ -587,14 +587,27 @@ impl FitTally {
             return;
         }
         let position = bundle.position(&inputs.reference).ok();
-        let calibrated = position.is_some_and(|p| p.lights.iter().any(|l| l.intensity.is_some()));
+        // The numbers themselves: a rig recalibrated later changes them,
+        // and the result must say which it was measured against.
+        let intensities: Vec<String> = position
+            .map(|p| {
+                p.lights
+                    .iter()
+                    .filter_map(|l| Some(format!("{} {:.6}", l.name, l.intensity?)))
+                    .collect()
+            })
+            .unwrap_or_default();
         self.constrained = Some(fitted.constrained);
         self.summary = Some(FitSummary {
             method,
-            scale: if calibrated {
-                "the manifest's calibrated light intensities".to_string()
-            } else {
+            scale: if intensities.is_empty() {
                 "none: the manifest gives no light intensity, the fit could not run".to_string()
+            } else {
+                format!(
+                    "the manifest's light intensities at {}: {}",
+                    inputs.reference,
+                    intensities.join(", ")
+                )
             },
             materials: fitted.materials.clone(),
             notes: fitted.notes.clone(),
