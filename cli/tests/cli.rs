@@ -223,6 +223,32 @@ fn calib_writes_the_documented_maps_and_check_reports_json() {
     let json: serde_json::Value = serde_json::from_slice(&o.stdout).expect("one JSON object");
     let iou = json["positions"][0]["silhouette"]["iou"].as_f64().unwrap();
     assert!(iou >= 0.98, "IoU {iou}");
+    // Against a rig file whose camera turned 3 degrees since: the photos
+    // no longer fit it, the check fails and says how far it moved.
+    let (mut rig, _) = matscan_scan::Manifest::read(&scan.join("scan.toml")).unwrap();
+    for p in &mut rig.positions {
+        p.camera_to_world *= glam::DMat4::from_rotation_y(3f64.to_radians());
+    }
+    let rig_file = tmp.path().join("rig.toml");
+    std::fs::write(&rig_file, rig.to_toml()).unwrap();
+    let check = |rig: &std::path::Path| {
+        matscan(&[
+            "calib",
+            "check",
+            scan.to_str().unwrap(),
+            "--rig",
+            rig.to_str().unwrap(),
+        ])
+    };
+    let o = check(&rig_file);
+    assert_eq!(o.status.code(), Some(2), "{}", stdout(&o));
+    assert!(
+        stdout(&o).contains("orientation 3.000 deg"),
+        "{}",
+        stdout(&o)
+    );
+    let o = check(&scan.join("scan.toml"));
+    assert!(o.status.success(), "{}", stdout(&o));
 }
 
 #[test]

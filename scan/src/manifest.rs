@@ -311,6 +311,46 @@ impl Manifest {
         parse::parse(text, path, parse::Captures::Optional)
     }
 
+    /// This scan under the rig of the rig file `rig` (read from
+    /// `rig_path`, which errors name): the camera (scaled to this scan's
+    /// photo size), each position's pose, and each light's placement,
+    /// colour and intensity, by name. An error names the position or light
+    /// the rig file lacks; the manifest is then unchanged.
+    pub fn adopt_rig(&mut self, rig: &Manifest, rig_path: &Path) -> Result<(), ScanError> {
+        let mut out = self.clone();
+        out.camera = rig.camera.scaled_to(self.camera.width, self.camera.height);
+        for position in &mut out.positions {
+            let missing = |key: &str, what: String| ScanError::Invalid {
+                path: rig_path.to_path_buf(),
+                key: key.into(),
+                expected: what,
+            };
+            let from = rig.position(&position.name).ok_or_else(|| {
+                missing(
+                    "position",
+                    format!("position `{}`, as the scan has", position.name),
+                )
+            })?;
+            position.camera_to_world = from.camera_to_world;
+            for light in &mut position.lights {
+                let l = from.light(&light.name).ok_or_else(|| {
+                    missing(
+                        "position.light",
+                        format!(
+                            "light `{}` at position `{}`, as the scan has",
+                            light.name, position.name
+                        ),
+                    )
+                })?;
+                light.kind = l.kind.clone();
+                light.color = l.color;
+                light.intensity = l.intensity;
+            }
+        }
+        *self = out;
+        Ok(())
+    }
+
     /// Reads a rig calibration file (see [`Manifest::parse_rig`]).
     pub fn read_rig(path: &Path) -> Result<(Manifest, Vec<String>), ScanError> {
         let text = std::fs::read_to_string(path).map_err(|e| ScanError::io(path, e))?;

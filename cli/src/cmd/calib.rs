@@ -6,7 +6,7 @@ use anyhow::{Context, Result};
 use clap::{Args, Subcommand};
 use matscan_calib::check::{check, CheckOptions, CheckReport};
 use matscan_calib::{calibrate_bundle, write_maps, CalibOptions};
-use matscan_scan::Bundle;
+use matscan_scan::{Bundle, Manifest};
 use std::path::Path;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -32,6 +32,12 @@ pub enum CalibAction {
     Check {
         /// The scan bundle folder.
         scan: PathBuf,
+        /// Check the photos against this rig file (as `calib rig` wrote
+        /// it) instead of the rig the scan recorded: does the calibration
+        /// still explain a new scan? Also prints how far the scan's
+        /// recorded rig lies from it.
+        #[arg(long)]
+        rig: Option<PathBuf>,
         /// Print one JSON object with the per-position figures.
         #[arg(long)]
         json: bool,
@@ -137,8 +143,8 @@ fn run_capture(a: &CaptureArgs) -> Result<()> {
 /// Runs `matscan calib`: exit code 2 when a check fails.
 pub fn run(a: CalibArgs) -> Result<()> {
     match (a.action, a.scan) {
-        (Some(CalibAction::Check { scan, json }), _) => {
-            if run_check(&scan, json)? {
+        (Some(CalibAction::Check { scan, rig, json }), _) => {
+            if run_check(&scan, rig.as_deref(), json)? {
                 Ok(())
             } else {
                 std::process::exit(2)
@@ -195,8 +201,31 @@ pub fn write(scan: &Path, out: &Path) -> Result<()> {
 }
 
 /// Checks the calibration; returns whether every check passed.
-pub fn run_check(scan: &Path, json: bool) -> Result<bool> {
-    let bundle = open(scan)?;
+pub fn run_check(scan: &Path, rig: Option<&Path>, json: bool) -> Result<bool> {
+    let mut bundle = open(scan)?;
+    if let Some(path) = rig {
+        let (rig, _) = Manifest::read_rig(path)
+            .with_context(|| format!("reading rig file {}", path.display()))?;
+        let d = matscan_rigcal::compare::compare(&bundle.manifest, &rig);
+        if !json {
+            println!(
+                "the scan's recorded rig against {}: focal length {:.3} %, camera position \
+                 {:.2} mm, orientation {:.3} deg (worst of {} positions)",
+                path.display(),
+                d.focal_percent,
+                1000.0 * d.position,
+                d.rotation_deg,
+                d.positions
+            );
+            for (name, off) in &d.intensities {
+                println!("  {name}: intensity {:+.2} %", 100.0 * off);
+            }
+        }
+        bundle
+            .manifest
+            .adopt_rig(&rig, path)
+            .with_context(|| format!("checking {} against {}", scan.display(), path.display()))?;
+    }
     let calibration = calibrate_bundle(&bundle, &CalibOptions::default())
         .with_context(|| format!("calibrating {}", scan.display()))?;
     let report = check(

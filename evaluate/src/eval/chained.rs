@@ -124,7 +124,7 @@ pub(super) fn chained_configurations(
             Some(from) => {
                 let file = super::rig_from::rig_file_for(from, scan);
                 match matscan_scan::Manifest::read_rig(&file) {
-                    Ok((rig, _)) => Some(rig),
+                    Ok((rig, _)) => Some((rig, file)),
                     Err(e) => {
                         for c in &mut out {
                             c.failures
@@ -138,8 +138,8 @@ pub(super) fn chained_configurations(
         };
         let rig_refused = std::cell::RefCell::new(None);
         let adjust = |m: &mut matscan_scan::Manifest| {
-            if let Some(rig) = &rig {
-                if let Err(e) = super::rig_from::apply_rig(m, rig) {
+            if let Some((rig, file)) = &rig {
+                if let Err(e) = m.adopt_rig(rig, file) {
                     *rig_refused.borrow_mut() = Some(e);
                 }
             }

@@ -2,9 +2,9 @@
 //! manifest gives (`matscan eval --rig-from`): the end-to-end test of rig
 //! calibration, where a simulated scan's true rig is swapped for the one
 //! recovered from simulated calibration photos of it, so that each
-//! parameter's MAD shows what the calibration's errors cost.
+//! parameter's MAD shows what the calibration's errors cost. The swap is
+//! [`matscan_scan::Manifest::adopt_rig`].
 
-use matscan_scan::Manifest;
 use std::path::{Path, PathBuf};
 
 /// The rig file for `scan` under `rig_from`: the file itself, or (a
@@ -19,45 +19,11 @@ pub fn rig_file_for(rig_from: &Path, scan: &Path) -> PathBuf {
     }
 }
 
-/// `manifest` with the camera (scaled to the scan's photo size), each
-/// position's pose and each light's placement, colour and intensity taken
-/// from `rig` by name; an error names a position or light the rig file
-/// lacks.
-pub fn apply_rig(manifest: &mut Manifest, rig: &Manifest) -> Result<(), String> {
-    manifest.camera = rig
-        .camera
-        .scaled_to(manifest.camera.width, manifest.camera.height);
-    for position in &mut manifest.positions {
-        let from = rig
-            .positions
-            .iter()
-            .find(|p| p.name == position.name)
-            .ok_or_else(|| format!("the rig file has no position `{}`", position.name))?;
-        position.camera_to_world = from.camera_to_world;
-        for light in &mut position.lights {
-            let l = from
-                .lights
-                .iter()
-                .find(|l| l.name == light.name)
-                .ok_or_else(|| {
-                    format!(
-                        "the rig file has no light `{}` at position `{}`",
-                        light.name, position.name
-                    )
-                })?;
-            light.kind = l.kind.clone();
-            light.color = l.color;
-            light.intensity = l.intensity;
-        }
-    }
-    Ok(())
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use glam::{DMat4, DVec3};
-    use matscan_scan::{Intrinsics, Light, LightKind, Position};
+    use matscan_scan::{Intrinsics, Light, LightKind, Manifest, Position};
 
     fn manifest(size: u32, x: f64, intensity: f64) -> Manifest {
         Manifest {
@@ -94,7 +60,7 @@ mod tests {
     fn a_rig_file_replaces_the_camera_poses_and_lights_at_the_scans_size() {
         let mut scan = manifest(256, 0.0, 10.0);
         let rig = manifest(1024, 0.001, 10.2);
-        apply_rig(&mut scan, &rig).unwrap();
+        scan.adopt_rig(&rig, Path::new("rig.toml")).unwrap();
         assert_eq!(scan.camera.width, 256);
         assert!((scan.camera.fx - 256.0).abs() < 1e-9);
         assert_eq!(
@@ -104,8 +70,13 @@ mod tests {
         assert_eq!(scan.positions[0].lights, rig.positions[0].lights);
         let mut other = rig.clone();
         other.positions[0].name = "p1".into();
-        let e = apply_rig(&mut scan, &other).unwrap_err();
-        assert!(e.contains("p0"), "{e}");
+        let before = scan.clone();
+        let e = scan
+            .adopt_rig(&other, Path::new("rig.toml"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("p0") && e.contains("rig.toml"), "{e}");
+        assert_eq!(scan, before, "unchanged on an error");
         assert_eq!(
             rig_file_for(Path::new("/no/such/rig.toml"), Path::new("/d/scene-1")),
             PathBuf::from("/no/such/rig.toml")
