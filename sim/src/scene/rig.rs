@@ -339,9 +339,10 @@ pub fn rig_to_manifest_lights(position: &RigPosition) -> Vec<Light> {
 /// projector, and a backlight panel of the manifest's radiance 1.1 units
 /// beyond the origin on the camera's axis, facing it (the manifest does
 /// not say where the panel stands; calibration measures only its
-/// radiance). Every position takes the exposure of its first capture (1 s
-/// without captures). An error names the position and light that is
-/// missing or has no intensity.
+/// radiance). Every position takes the exposure of its first capture, or
+/// without captures (a rig file) the one [`random_rig`] would choose for
+/// its first flash. An error names the position and light that is missing
+/// or has no intensity.
 pub fn rig_from_manifest(manifest: &Manifest) -> Result<Rig, String> {
     let mut positions = Vec::new();
     for p in &manifest.positions {
@@ -392,7 +393,15 @@ pub fn rig_from_manifest(manifest: &Manifest) -> Result<Rig, String> {
             }
         }
         let missing = |what: &str| format!("position {}: no {what} light", p.name);
-        let exposure_s = p.captures.first().map_or(1.0, |c| c.exposure_s as f32);
+        let exposure_s = match (p.captures.first(), flashes.first()) {
+            (Some(c), _) => c.exposure_s as f32,
+            (None, Some(f)) => {
+                let d2 = f.position.length_squared().max(1e-6);
+                let white = f.intensity / (std::f32::consts::PI * d2);
+                0.5 / (white + NOMINAL_ENV_STRENGTH)
+            }
+            (None, None) => 1.0,
+        };
         positions.push(RigPosition {
             name: p.name.clone(),
             camera_to_world: p.camera_to_world,
@@ -677,6 +686,9 @@ mod tests {
         let back = rig_from_manifest(&manifest).unwrap();
         assert_eq!(back.intrinsics, rig.intrinsics);
         for (b, p) in back.positions.iter().zip(&rig.positions) {
+            // A rig file has no captures: the exposure is chosen as the
+            // rig's own was.
+            assert!((b.exposure_s / p.exposure_s - 1.0).abs() < 1e-4);
             assert_eq!(b.camera_to_world, p.camera_to_world);
             assert_eq!(b.flashes, p.flashes);
             assert_eq!(b.projector, p.projector);
