@@ -168,12 +168,6 @@ pub fn write_lights(
         flash: Vec<Flash>,
         sphere: Vec<Sphere>,
     }
-    std::fs::create_dir_all(out_dir).map_err(|e| {
-        RigcalError::Scan(matscan_scan::ScanError::Io {
-            path: out_dir.to_path_buf(),
-            source: e,
-        })
-    })?;
     let report = Report {
         format: "matscan-lights-report/1",
         rig_from: rig_path.to_path_buf(),
@@ -205,11 +199,30 @@ pub fn write_lights(
             })
             .collect(),
     };
-    let text = toml::to_string(&report).unwrap_or_default();
-    write_atomic(&out_dir.join(LIGHTS_REPORT_FILE), text.as_bytes())?;
-    let path = out_dir.join(RIG_FILE);
     let moved = crate::lights::flashes_in_world(rig, lights);
-    write_atomic(&path, moved.to_toml().as_bytes())?;
+    publish(out_dir, LIGHTS_REPORT_FILE, &report, &moved)
+}
+
+/// Writes `report` as `out_dir/report_file` and `rig` as `out_dir/rig.toml`
+/// (each atomically, the folder made if missing); returns the rig file's
+/// path.
+fn publish(
+    out_dir: &Path,
+    report_file: &str,
+    report: &impl Serialize,
+    rig: &Manifest,
+) -> Result<PathBuf, RigcalError> {
+    std::fs::create_dir_all(out_dir).map_err(|e| {
+        RigcalError::Scan(matscan_scan::ScanError::Io {
+            path: out_dir.to_path_buf(),
+            source: e,
+        })
+    })?;
+    // Plain data with string keys: serializing cannot fail.
+    let text = toml::to_string(report).unwrap_or_default();
+    write_atomic(&out_dir.join(report_file), text.as_bytes())?;
+    let path = out_dir.join(RIG_FILE);
+    write_atomic(&path, rig.to_toml().as_bytes())?;
     Ok(path)
 }
 
@@ -250,12 +263,6 @@ pub fn write_radiometry(
         light: Vec<Level>,
         linearity: Vec<Linearity>,
     }
-    std::fs::create_dir_all(out_dir).map_err(|e| {
-        RigcalError::Scan(matscan_scan::ScanError::Io {
-            path: out_dir.to_path_buf(),
-            source: e,
-        })
-    })?;
     let report = Report {
         format: "matscan-white-report/1",
         rig_from: rig_path.to_path_buf(),
@@ -281,10 +288,6 @@ pub fn write_radiometry(
             })
             .collect(),
     };
-    let text = toml::to_string(&report).unwrap_or_default();
-    write_atomic(&out_dir.join(WHITE_REPORT_FILE), text.as_bytes())?;
-    let path = out_dir.join(RIG_FILE);
     let measured = crate::radiometry::intensities_in_rig(rig, radiometry);
-    write_atomic(&path, measured.to_toml().as_bytes())?;
-    Ok(path)
+    publish(out_dir, WHITE_REPORT_FILE, &report, &measured)
 }

@@ -199,23 +199,15 @@ struct RawShot {
 impl CalibManifest {
     /// Reads and validates `calib.toml` in `dir`.
     pub fn read(dir: &Path) -> Result<CalibManifest, ScanError> {
-        let path = dir.join(CALIB_MANIFEST);
-        let text = std::fs::read_to_string(&path).map_err(|e| ScanError::io(&path, e))?;
+        let (text, path) = read_manifest(dir, CALIB_MANIFEST)?;
         Self::parse(&text, &path)
     }
 
     /// Parses `calib.toml` text; `path` names the file in errors.
     pub fn parse(text: &str, path: &Path) -> Result<CalibManifest, ScanError> {
         let raw: RawManifest =
-            toml::from_str(text).map_err(|e| ScanError::format(path, e.to_string()))?;
-        let invalid = |key: &str, expected: &str| ScanError::Invalid {
-            path: path.to_path_buf(),
-            key: key.into(),
-            expected: expected.into(),
-        };
-        if raw.format != CALIB_FORMAT {
-            return Err(invalid("format", &format!("expected \"{CALIB_FORMAT}\"")));
-        }
+            parse_manifest(text, path, CALIB_FORMAT, |r: &RawManifest| &r.format)?;
+        let invalid = invalid_key(path);
         if raw.board.kind != "chessboard" {
             return Err(invalid(
                 "board.kind",
@@ -360,6 +352,38 @@ impl CalibManifest {
 }
 
 /// Whether `path` stays inside a bundle's folder: relative, and never up.
+/// Reads the manifest `file` of the bundle in `dir`: its text and path.
+pub(crate) fn read_manifest(dir: &Path, file: &str) -> Result<(String, PathBuf), ScanError> {
+    let path = dir.join(file);
+    let text = std::fs::read_to_string(&path).map_err(|e| ScanError::io(&path, e))?;
+    Ok((text, path))
+}
+
+/// Manifest `text` (at `path`, which errors name) as `T`, its `format`
+/// key (`format_of`) checked to be `want`.
+pub(crate) fn parse_manifest<T: serde::de::DeserializeOwned>(
+    text: &str,
+    path: &Path,
+    want: &str,
+    format_of: impl Fn(&T) -> &str,
+) -> Result<T, ScanError> {
+    let raw: T = toml::from_str(text).map_err(|e| ScanError::format(path, e.to_string()))?;
+    if format_of(&raw) != want {
+        return Err(invalid_key(path)("format", &format!("expected \"{want}\"")));
+    }
+    Ok(raw)
+}
+
+/// The error of key `key` of the manifest at `path`, saying what was
+/// expected.
+pub(crate) fn invalid_key(path: &Path) -> impl Fn(&str, &str) -> ScanError + '_ {
+    move |key: &str, expected: &str| ScanError::Invalid {
+        path: path.to_path_buf(),
+        key: key.into(),
+        expected: expected.into(),
+    }
+}
+
 pub(crate) fn inside_bundle(path: &Path) -> bool {
     !path.is_absolute()
         && !path

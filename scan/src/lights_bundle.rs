@@ -107,23 +107,17 @@ struct RawPlacement {
 impl LightsManifest {
     /// Reads and validates `lights.toml` in `dir`.
     pub fn read(dir: &Path) -> Result<LightsManifest, ScanError> {
-        let path = dir.join(LIGHTS_MANIFEST);
-        let text = std::fs::read_to_string(&path).map_err(|e| ScanError::io(&path, e))?;
+        let (text, path) = crate::calib_bundle::read_manifest(dir, LIGHTS_MANIFEST)?;
         Self::parse(&text, &path)
     }
 
     /// Parses `lights.toml` text; `path` names the file in errors.
     pub fn parse(text: &str, path: &Path) -> Result<LightsManifest, ScanError> {
         let raw: RawManifest =
-            toml::from_str(text).map_err(|e| ScanError::format(path, e.to_string()))?;
-        let invalid = |key: &str, expected: &str| ScanError::Invalid {
-            path: path.to_path_buf(),
-            key: key.into(),
-            expected: expected.into(),
-        };
-        if raw.format != LIGHTS_FORMAT {
-            return Err(invalid("format", &format!("expected \"{LIGHTS_FORMAT}\"")));
-        }
+            crate::calib_bundle::parse_manifest(text, path, LIGHTS_FORMAT, |r: &RawManifest| {
+                &r.format
+            })?;
+        let invalid = crate::calib_bundle::invalid_key(path);
         if !(raw.sphere.radius.is_finite() && raw.sphere.radius > 0.0) {
             return Err(invalid("sphere.radius", "expected a positive length"));
         }

@@ -149,23 +149,17 @@ struct RawPhoto {
 impl WhiteManifest {
     /// Reads and validates `white.toml` in `dir`.
     pub fn read(dir: &Path) -> Result<WhiteManifest, ScanError> {
-        let path = dir.join(WHITE_MANIFEST);
-        let text = std::fs::read_to_string(&path).map_err(|e| ScanError::io(&path, e))?;
+        let (text, path) = crate::calib_bundle::read_manifest(dir, WHITE_MANIFEST)?;
         Self::parse(&text, &path)
     }
 
     /// Parses `white.toml` text; `path` names the file in errors.
     pub fn parse(text: &str, path: &Path) -> Result<WhiteManifest, ScanError> {
         let raw: RawManifest =
-            toml::from_str(text).map_err(|e| ScanError::format(path, e.to_string()))?;
-        let invalid = |key: &str, expected: &str| ScanError::Invalid {
-            path: path.to_path_buf(),
-            key: key.into(),
-            expected: expected.into(),
-        };
-        if raw.format != WHITE_FORMAT {
-            return Err(invalid("format", &format!("expected \"{WHITE_FORMAT}\"")));
-        }
+            crate::calib_bundle::parse_manifest(text, path, WHITE_FORMAT, |r: &RawManifest| {
+                &r.format
+            })?;
+        let invalid = crate::calib_bundle::invalid_key(path);
         if raw.position.is_empty() {
             return Err(invalid("position", "expected a rig position's name"));
         }

@@ -125,14 +125,29 @@ pub fn board_scene(board: &Chessboard, board_to_world: DMat4, rig: &Rig) -> Scen
         let black = inside && ((c / i64::from(t)) + (r / i64::from(t))) % 2 == 0;
         [if black { BLACK } else { WHITE }; 3]
     });
+    target_scene("chessboard", "board", mesh, Texture::Map(print), 0.7, rig)
+}
+
+/// A calibration target's scene: `mesh` of a dielectric with `basecolor`
+/// and `roughness`, named `kind` and `geometry`, under `rig` and a dim
+/// procedural room (the same for every target, so the ambient photos of
+/// all calibrations look alike).
+pub(crate) fn target_scene(
+    kind: &str,
+    geometry: &str,
+    mesh: Mesh,
+    basecolor: Texture<[f32; 3]>,
+    roughness: f32,
+    rig: &Rig,
+) -> Scene {
     Scene {
-        name: "chessboard".into(),
-        kind: "chessboard".into(),
-        geometry: "board".into(),
+        name: kind.into(),
+        kind: kind.into(),
+        geometry: geometry.into(),
         mesh,
         material: MaterialField {
-            basecolor: Texture::Map(print),
-            roughness: Texture::Constant(0.7),
+            basecolor,
+            roughness: Texture::Constant(roughness),
             metallic: Texture::Constant(0.0),
             transmission: Texture::Constant(0.0),
             subsurface: Texture::Constant(0.0),

@@ -13,9 +13,10 @@
 //!
 //! Boundaries: scenes and placements only; the capture path renders them.
 
+use crate::calib_target::target_scene;
 use crate::render::SimError;
-use crate::scene::{EnvSource, EnvSpec, MaterialField, Rig, Scene, Texture};
-use glam::{DMat4, DVec3, Vec2, Vec3};
+use crate::scene::{Rig, Scene, Texture};
+use glam::{DMat4, DVec3, Vec2};
 use matscan_scan::Mesh;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
@@ -54,31 +55,20 @@ pub fn sphere_scene(centre: DVec3, radius: f64, rig: &Rig) -> Scene {
             triangles.push([a, d, c]);
         }
     }
-    Scene {
-        name: "sphere".into(),
-        kind: "sphere".into(),
-        geometry: "sphere".into(),
-        mesh: Mesh {
-            positions,
-            normals: Some(normals),
-            uvs: Some(uvs),
-            triangles,
-        },
-        material: MaterialField {
-            basecolor: Texture::Constant([0.02; 3]),
-            roughness: Texture::Constant(0.3),
-            metallic: Texture::Constant(0.0),
-            transmission: Texture::Constant(0.0),
-            subsurface: Texture::Constant(0.0),
-            subsurface_radius: Vec3::splat(0.01),
-        },
-        environment: EnvSpec {
-            source: EnvSource::Procedural { seed: 7 },
-            strength: 0.3,
-            rotation: 0.0,
-        },
-        rig: rig.clone(),
-    }
+    let mesh = Mesh {
+        positions,
+        normals: Some(normals),
+        uvs: Some(uvs),
+        triangles,
+    };
+    target_scene(
+        "sphere",
+        "sphere",
+        mesh,
+        Texture::Constant([0.02; 3]),
+        0.3,
+        rig,
+    )
 }
 
 /// A person holding the sphere up in front of a simulated rig: its radius

@@ -9,8 +9,9 @@
 //!
 //! Boundaries: the scenes only; the capture path renders them.
 
-use crate::scene::{EnvSource, EnvSpec, MaterialField, Rig, Scene, Texture};
-use glam::{DMat4, DVec3, Vec2, Vec3};
+use crate::calib_target::target_scene;
+use crate::scene::{Rig, Scene, Texture};
+use glam::{DMat4, DVec3, Vec2};
 use matscan_scan::white_bundle::WhiteCard;
 use matscan_scan::Mesh;
 
@@ -52,41 +53,31 @@ pub fn white_card_scene(card: &WhiteCard, rig: &Rig) -> Scene {
             .as_vec3()
     };
     let albedo = card.albedo.clamp(0.0, 1.0) as f32;
-    Scene {
-        name: "white card".into(),
-        kind: "white-card".into(),
-        geometry: "card".into(),
-        mesh: Mesh {
-            positions: vec![
-                corner(0.0, 0.0),
-                corner(w, 0.0),
-                corner(w, h),
-                corner(0.0, h),
-            ],
-            normals: None,
-            uvs: Some(vec![
-                Vec2::new(0.0, 1.0),
-                Vec2::new(1.0, 1.0),
-                Vec2::new(1.0, 0.0),
-                Vec2::new(0.0, 0.0),
-            ]),
-            // Wound so the geometric normal faces -z, the white side (as
-            // the board's print).
-            triangles: vec![[0, 2, 1], [0, 3, 2]],
-        },
-        material: MaterialField {
-            basecolor: Texture::Constant([albedo; 3]),
-            roughness: Texture::Constant(card.roughness.clamp(0.0, 1.0) as f32),
-            metallic: Texture::Constant(0.0),
-            transmission: Texture::Constant(0.0),
-            subsurface: Texture::Constant(0.0),
-            subsurface_radius: Vec3::splat(0.01),
-        },
-        environment: EnvSpec {
-            source: EnvSource::Procedural { seed: 7 },
-            strength: 0.3,
-            rotation: 0.0,
-        },
-        rig: rig.clone(),
-    }
+    let mesh = Mesh {
+        positions: vec![
+            corner(0.0, 0.0),
+            corner(w, 0.0),
+            corner(w, h),
+            corner(0.0, h),
+        ],
+        normals: None,
+        uvs: Some(vec![
+            Vec2::new(0.0, 1.0),
+            Vec2::new(1.0, 1.0),
+            Vec2::new(1.0, 0.0),
+            Vec2::new(0.0, 0.0),
+        ]),
+        // Wound so the geometric normal faces -z, the white side (as the
+        // board's print).
+        triangles: vec![[0, 2, 1], [0, 3, 2]],
+    };
+    let roughness = card.roughness.clamp(0.0, 1.0) as f32;
+    target_scene(
+        "white-card",
+        "card",
+        mesh,
+        Texture::Constant([albedo; 3]),
+        roughness,
+        rig,
+    )
 }

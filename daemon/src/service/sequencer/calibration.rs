@@ -513,66 +513,40 @@ impl RigDevices {
             Ok(())
         };
         // The panel first, with the mount empty: a card before it lights
-        // it back and brightens it by several per cent.
-        let task = format!(
-            "take everything off the mount: the backlight panel is photographed alone from {}",
-            geometry.name
-        );
-        self.present(
-            0,
-            TargetPlacement::EmptyMount,
-            &task,
-            settings,
-            stop,
-            prompt,
-        )?;
-        let (exposure, ambient, lit) =
-            self.unclipped(&geometry.name, geometry.exposure_s, &panel, stop)?;
-        keep(
-            self,
-            PANEL_AMBIENT.into(),
-            &ambient,
-            exposure,
-            Vec::new(),
-            None,
-        )?;
-        for ((file, rgb), shot) in lit.iter().zip(&panel) {
-            let lights = vec![shot.light_name()];
-            keep(
-                self,
-                file.clone(),
-                rgb,
-                exposure,
-                lights,
-                Some(PANEL_AMBIENT),
-            )?;
-        }
-        let task = format!(
-            "put the white card on the board's mount at its reference placement, white \
-             side to the camera at {}, nothing between it and the lights",
-            geometry.name
-        );
-        self.present(0, TargetPlacement::WhiteCard, &task, settings, stop, prompt)?;
-        let (exposure, ambient, lit) =
-            self.unclipped(&geometry.name, geometry.exposure_s, &shots, stop)?;
-        keep(
-            self,
-            AMBIENT_PHOTO.into(),
-            &ambient,
-            exposure,
-            Vec::new(),
-            None,
-        )?;
-        for ((file, rgb), shot) in lit.iter().zip(&shots) {
-            let lights = vec![shot.light_name()];
-            keep(
-                self,
-                file.clone(),
-                rgb,
-                exposure,
-                lights,
-                Some(AMBIENT_PHOTO),
-            )?;
+        // it back and brightens it by several per cent. Then the card.
+        let stages = [
+            (
+                TargetPlacement::EmptyMount,
+                format!(
+                    "take everything off the mount: the backlight panel is photographed \
+                     alone from {}",
+                    geometry.name
+                ),
+                &panel[..],
+                PANEL_AMBIENT,
+            ),
+            (
+                TargetPlacement::WhiteCard,
+                format!(
+                    "put the white card on the board's mount at its reference placement, \
+                     white side to the camera at {}, nothing between it and the lights",
+                    geometry.name
+                ),
+                &shots[..],
+                AMBIENT_PHOTO,
+            ),
+        ];
+        let mut exposure = geometry.exposure_s;
+        for (placement, task, lit_shots, ambient_file) in stages {
+            self.present(0, placement, &task, settings, stop, prompt)?;
+            let (e, ambient, lit) =
+                self.unclipped(&geometry.name, geometry.exposure_s, lit_shots, stop)?;
+            keep(self, ambient_file.into(), &ambient, e, Vec::new(), None)?;
+            for ((file, rgb), shot) in lit.iter().zip(lit_shots) {
+                let lights = vec![shot.light_name()];
+                keep(self, file.clone(), rgb, e, lights, Some(ambient_file))?;
+            }
+            exposure = e;
         }
         // The linearity check: the first flash at each shorter exposure,
         // with its own ambient.
