@@ -755,7 +755,8 @@ fn calibration(
         ));
     }
     let white_exposures = raw.white_exposures.unwrap_or(defaults.white_exposures);
-    WhitePlan::new(white_exposures).map_err(|e| invalid("calibration.white_exposures", e))?;
+    WhitePlan::new(white_exposures, white_albedo, white_roughness)
+        .map_err(|e| invalid("calibration.white_exposures", e))?;
     Ok(CalibrationSettings {
         target,
         shots,

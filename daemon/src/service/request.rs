@@ -96,7 +96,7 @@ pub fn request_calibration(
         }
         "white" => {
             let exposures = counts.exposures.unwrap_or(c.white_exposures);
-            WhitePlan::new(exposures)
+            WhitePlan::new(exposures, c.white_albedo, c.white_roughness)
                 .map(CalibrationPlan::White)
                 .map_err(|e| format!("exposures = {e}"))
         }

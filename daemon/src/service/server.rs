@@ -561,16 +561,9 @@ fn run_calibration(
             &mut prompt,
             &mut progress,
         ),
-        CalibrationPlan::White(white) => r.capture_white(
-            white,
-            config.calibration.white_albedo,
-            config.calibration.white_roughness,
-            &target,
-            &stop,
-            &settings,
-            &mut prompt,
-            &mut progress,
-        ),
+        CalibrationPlan::White(white) => {
+            r.capture_white(white, &target, &stop, &settings, &mut prompt, &mut progress)
+        }
     }
     .map_err(|e| e.to_string())?;
     Ok((

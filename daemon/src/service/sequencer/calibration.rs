@@ -102,10 +102,15 @@ impl SpherePlan {
 
 /// How a radiometric calibration photographs the white card: every light
 /// alone at one exposure, and the first flash at `exposures` exposures in
-/// all (each half the last) for the camera's linearity.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// all (each half the last) for the camera's linearity; with the card's
+/// reflectance as the configuration gives it.
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct WhitePlan {
     pub exposures: usize,
+    /// The card's diffuse reflectance.
+    pub albedo: f64,
+    /// The card's roughness (Principled BSDF).
+    pub roughness: f64,
 }
 
 impl WhitePlan {
@@ -114,17 +119,21 @@ impl WhitePlan {
 
     /// The plan, unless `exposures` is outside 1 to
     /// [`WhitePlan::MAX_EXPOSURES`] (1: no linearity check).
-    pub fn new(exposures: usize) -> Result<WhitePlan, String> {
+    pub fn new(exposures: usize, albedo: f64, roughness: f64) -> Result<WhitePlan, String> {
         let max = Self::MAX_EXPOSURES;
         (1..=max)
             .contains(&exposures)
-            .then_some(WhitePlan { exposures })
+            .then_some(WhitePlan {
+                exposures,
+                albedo,
+                roughness,
+            })
             .ok_or_else(|| format!("{exposures}: expected 1 to {max} exposures of the white card"))
     }
 }
 
 /// What a calibration capture photographs.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub enum CalibrationPlan {
     /// The printed board: the cameras, and the projector by Gray codes.
     Board(BoardPlan),
@@ -154,7 +163,7 @@ impl CalibrationPlan {
                 "target": "sphere", "placements": s.placements,
             }),
             CalibrationPlan::White(w) => serde_json::json!({
-                "target": "white", "exposures": w.exposures,
+                "target": "white", "exposures": w.exposures, "albedo": w.albedo,
             }),
         }
     }
@@ -436,33 +445,24 @@ impl RigDevices {
     /// Photographs the white card on the board's mount under every light
     /// alone, then the first flash at `plan`'s shorter exposures, and
     /// publishes the radiometric calibration bundle at `target` (which
-    /// must not exist); as [`RigDevices::capture_calibration`]. `albedo`
-    /// and `roughness` are the card's, as the configuration gives them.
-    #[allow(clippy::too_many_arguments)]
+    /// must not exist); as [`RigDevices::capture_calibration`].
     pub fn capture_white(
         &mut self,
         plan: WhitePlan,
-        albedo: f64,
-        roughness: f64,
         target: &Path,
         stop: &dyn Fn() -> bool,
         settings: &RunSettings,
         prompt: &mut dyn FnMut(&str),
         progress: &mut dyn FnMut(Progress),
     ) -> Result<CalibrationOutcome, CaptureError> {
-        let result = self.white_inner(
-            plan, albedo, roughness, target, stop, settings, prompt, progress,
-        );
+        let result = self.white_inner(plan, target, stop, settings, prompt, progress);
         self.leave_dark("calibration");
         result
     }
 
-    #[allow(clippy::too_many_arguments)]
     fn white_inner(
         &mut self,
         plan: WhitePlan,
-        albedo: f64,
-        roughness: f64,
         target: &Path,
         stop: &dyn Fn() -> bool,
         settings: &RunSettings,
@@ -474,7 +474,12 @@ impl RigDevices {
             .calibration_target
             .clone()
             .ok_or(CaptureError::NoCalibrationTarget)?;
-        let card = WhiteCard::on_board(&board.board, board.reference_to_world, albedo, roughness);
+        let card = WhiteCard::on_board(
+            &board.board,
+            board.reference_to_world,
+            plan.albedo,
+            plan.roughness,
+        );
         let Some(geometry) = self.geometry.positions.first().cloned() else {
             return Err(CaptureError::CannotMove { positions: 0 });
         };
