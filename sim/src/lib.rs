@@ -8,6 +8,9 @@
 //!   and the writer of whole scan bundles;
 //! - [`calib_target`]: a printed chessboard before a rig's camera, written
 //!   as a calibration bundle with the true rig beside it;
+//! - [`sphere_target`] and [`white_target`]: the glossy sphere that locates
+//!   the flashes and the white card that measures the lights' intensities,
+//!   as the simulated operator holds them;
 //! - [`dataset`]: sets of scans, by seed run or by recipe, resumable and
 //!   sharded.
 //!
