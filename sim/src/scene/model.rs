@@ -73,9 +73,9 @@ pub struct EnvSpec {
     pub source: EnvSource,
     /// Multiplies the radiance. Scene generation balances the rig's lights
     /// against a procedural environment of mean radiance 1 before this
-    /// factor (see [`rig`]).
+    /// factor (see [`rig`](super::rig)).
     pub strength: f32,
-    /// Rotation about the world up axis (+Y, see [`rig`]), radians.
+    /// Rotation about the world up axis (+Y, see [`rig`](super::rig)), radians.
     pub rotation: f32,
 }
 
