@@ -116,6 +116,25 @@ fn shots_of(manifest: &CalibManifest) -> Vec<(usize, &matscan_scan::calib_bundle
         .collect()
 }
 
+/// An error naming `path` unless `photo` has `camera`'s size: every photo
+/// of a bundle comes from the one camera.
+pub(crate) fn check_size(
+    photo: &RgbRaster,
+    camera: &Intrinsics,
+    path: &Path,
+) -> Result<(), RigcalError> {
+    if (photo.width, photo.height) != (camera.width, camera.height) {
+        return Err(RigcalError::SizeMismatch {
+            path: path.to_path_buf(),
+            width: camera.width,
+            height: camera.height,
+            found_width: photo.width,
+            found_height: photo.height,
+        });
+    }
+    Ok(())
+}
+
 /// Reads a shot: EXR photos are linear; PNG photos are taken as sRGB, as
 /// cameras write them (the detector does not need linear light).
 pub fn read_shot(path: &Path) -> Result<RgbRaster, RigcalError> {

@@ -43,15 +43,33 @@ pub(crate) fn luminance(p: &[f32; 3]) -> f32 {
     }
 }
 
+/// A float ordered totally (NaN included), so that selection never sees
+/// an inconsistent order.
+pub(crate) trait TotalOrder: Copy + Default {
+    fn total(&self, other: &Self) -> std::cmp::Ordering;
+}
+
+impl TotalOrder for f32 {
+    fn total(&self, other: &Self) -> std::cmp::Ordering {
+        self.total_cmp(other)
+    }
+}
+
+impl TotalOrder for f64 {
+    fn total(&self, other: &Self) -> std::cmp::Ordering {
+        self.total_cmp(other)
+    }
+}
+
 /// The `q`-quantile of `values` (0 for none), by selection rather than a
 /// full sort: the photos have a million pixels.
-pub(crate) fn percentile(values: &[f32], q: f64) -> f32 {
+pub(crate) fn percentile<T: TotalOrder>(values: &[T], q: f64) -> T {
     if values.is_empty() {
-        return 0.0;
+        return T::default();
     }
     let mut v = values.to_vec();
     let k = ((v.len() as f64 * q) as usize).min(v.len() - 1);
-    *v.select_nth_unstable_by(k, f32::total_cmp).1
+    *v.select_nth_unstable_by(k, T::total).1
 }
 
 /// The photo's display-level grey image (see the module doc).

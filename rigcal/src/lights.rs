@@ -24,7 +24,7 @@
 //! Boundaries: reads the bundle's photos and the rig file's camera; writes
 //! nothing (see [`crate::write`]).
 
-use crate::camera::read_shot;
+use crate::camera::{check_size, read_shot};
 use crate::detect::percentile;
 use crate::error::RigcalError;
 use glam::{DMat3, DVec2, DVec3};
@@ -565,19 +565,6 @@ fn projector_centre(rig: &Manifest, position: &str) -> Option<DVec3> {
         ),
         _ => None,
     })
-}
-
-fn check_size(photo: &RgbRaster, camera: &Intrinsics, path: &Path) -> Result<(), RigcalError> {
-    if (photo.width, photo.height) != (camera.width, camera.height) {
-        return Err(RigcalError::SizeMismatch {
-            path: path.to_path_buf(),
-            width: camera.width,
-            height: camera.height,
-            found_width: photo.width,
-            found_height: photo.height,
-        });
-    }
-    Ok(())
 }
 
 /// `rig` with each position's flashes moved to where `lights` found them

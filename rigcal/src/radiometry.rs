@@ -20,12 +20,14 @@
 //! tone-mapped photos does not, and every intensity it gives would be
 //! wrong in a way no later step can see.
 
-use crate::camera::read_shot;
+use crate::camera::{check_size, read_shot};
+use crate::detect::{luminance, percentile};
 use crate::error::RigcalError;
 use glam::{DVec2, DVec3, Vec3};
 use matscan_bsdf::{Bsdf, Material};
-use matscan_scan::camera::PinholeCamera;
+use matscan_scan::camera::{Intrinsics, PinholeCamera};
 use matscan_scan::lights_bundle::{BACKLIGHT, CLIPPED_LEVEL};
+use matscan_scan::raster::RgbRaster;
 use matscan_scan::white_bundle::{WhiteManifest, WhitePhoto};
 use matscan_scan::{LightKind, Manifest};
 use std::path::{Path, PathBuf};
@@ -111,20 +113,20 @@ pub fn calibrate_radiometry(
     rig: &Manifest,
 ) -> Result<Radiometry, RigcalError> {
     let manifest_path = dir.join(matscan_scan::white_bundle::WHITE_MANIFEST);
-    let position = rig
-        .positions
-        .iter()
-        .find(|p| p.name == manifest.position)
-        .ok_or_else(|| RigcalError::UnknownPosition {
-            path: manifest_path.clone(),
-            position: manifest.position.clone(),
-        })?;
+    let position =
+        rig.position(&manifest.position)
+            .ok_or_else(|| RigcalError::UnknownPosition {
+                path: manifest_path.clone(),
+                position: manifest.position.clone(),
+            })?;
     let camera = PinholeCamera::new(rig.camera, position.camera_to_world);
     let card = CardView::new(manifest, &camera, &manifest_path)?;
     let mut readings: Vec<(String, Vec<(f64, LightLevel)>)> = Vec::new();
+    // Several lights share one ambient photo: each is read once.
+    let mut ambients = Ambients::default();
     for photo in manifest.photos.iter().filter(|p| p.lights.len() == 1) {
         let name = &photo.lights[0];
-        let kind = match position.lights.iter().find(|l| &l.name == name) {
+        let kind = match position.light(name) {
             Some(light) => &light.kind,
             None if name == BACKLIGHT => &LightKind::Backlight,
             None => {
@@ -155,7 +157,7 @@ pub fn calibrate_radiometry(
             },
             LightKind::Backlight => Source::Panel,
         };
-        let level = measure(dir, manifest, photo, &card, &camera, &source)?;
+        let level = measure(dir, manifest, photo, &mut ambients, &card, &camera, &source)?;
         match readings.iter_mut().find(|(n, _)| n == name) {
             Some((_, v)) => v.push((photo.exposure_s, level)),
             None => readings.push((name.clone(), vec![(photo.exposure_s, level)])),
@@ -167,7 +169,7 @@ pub fn calibrate_radiometry(
         levels.sort_by(|a, b| a.0.total_cmp(&b.0));
         if levels.len() > 1 {
             let values: Vec<f64> = levels.iter().map(|(_, l)| l.intensity).collect();
-            let mid = median(values.clone());
+            let mid = median(&values);
             let l = Linearity {
                 light: name.clone(),
                 readings: levels
@@ -293,11 +295,33 @@ impl CardView {
     }
 }
 
+/// The ambient photos read so far, by file.
+#[derive(Default)]
+struct Ambients(Vec<(PathBuf, RgbRaster)>);
+
+impl Ambients {
+    /// The photo at `path`, read on first use and checked to be
+    /// `camera`'s size.
+    fn get(&mut self, path: &Path, camera: &Intrinsics) -> Result<&RgbRaster, RigcalError> {
+        let k = match self.0.iter().position(|(p, _)| p == path) {
+            Some(k) => k,
+            None => {
+                let photo = read_shot(path)?;
+                check_size(&photo, camera, path)?;
+                self.0.push((path.to_path_buf(), photo));
+                self.0.len() - 1
+            }
+        };
+        Ok(&self.0[k].1)
+    }
+}
+
 /// One light's intensity from one photo and its ambient.
 fn measure(
     dir: &Path,
     manifest: &WhiteManifest,
     photo: &WhitePhoto,
+    ambients: &mut Ambients,
     card: &CardView,
     camera: &PinholeCamera,
     source: &Source,
@@ -311,19 +335,8 @@ fn measure(
             reason: "no ambient photo to read it against".into(),
         })?;
     let lit = read_shot(&path)?;
-    let ambient_path = dir.join(&ambient_photo.file);
-    let ambient = read_shot(&ambient_path)?;
-    for (p, r) in [(&path, &lit), (&ambient_path, &ambient)] {
-        if (r.width, r.height) != (camera.intrinsics.width, camera.intrinsics.height) {
-            return Err(RigcalError::SizeMismatch {
-                path: p.clone(),
-                width: camera.intrinsics.width,
-                height: camera.intrinsics.height,
-                found_width: r.width,
-                found_height: r.height,
-            });
-        }
-    }
+    check_size(&lit, &camera.intrinsics, &path)?;
+    let ambient = ambients.get(&dir.join(&ambient_photo.file), &camera.intrinsics)?;
     let signal = |index: usize| -> Option<[f64; 3]> {
         let (l, a) = (lit.data[index], ambient.data[index]);
         if l.iter().any(|&c| c >= CLIPPED_LEVEL) {
@@ -385,7 +398,7 @@ fn measure(
         });
     }
     let lumas: Vec<f64> = ratios.iter().map(luma).collect();
-    let mid = median(lumas.clone());
+    let mid = median(&lumas);
     let signal_floor = match source {
         Source::Panel => MIN_SIGNAL / exposure,
         Source::Point { .. } => 0.0,
@@ -420,7 +433,7 @@ fn measure(
         .filter(|(_, &l)| l >= SHADOWED * mid)
         .map(|(r, _)| *r)
         .collect();
-    let per_channel = [0, 1, 2].map(|c| median(kept.iter().map(|r| r[c]).collect()));
+    let per_channel = [0, 1, 2].map(|c| median(&kept.iter().map(|r| r[c]).collect::<Vec<_>>()));
     let peak = per_channel.iter().copied().fold(0.0, f64::max);
     if !(peak.is_finite() && peak > 0.0 && per_channel.iter().all(|c| *c >= 0.0)) {
         return Err(RigcalError::WhiteCard {
@@ -429,7 +442,7 @@ fn measure(
         });
     }
     let kept_lumas: Vec<f64> = kept.iter().map(luma).collect();
-    let spread = (quantile(kept_lumas.clone(), 0.75) - quantile(kept_lumas, 0.25)) / (2.0 * mid);
+    let spread = (percentile(&kept_lumas, 0.75) - percentile(&kept_lumas, 0.25)) / (2.0 * mid);
     Ok(LightLevel {
         name: name.clone(),
         intensity: peak,
@@ -450,7 +463,7 @@ fn panel_readings(
 ) -> (Vec<[f64; 3]>, usize) {
     let values: Vec<[f64; 3]> = card.background.iter().filter_map(|&i| signal(i)).collect();
     let clipped = card.background.len() - values.len();
-    let top = quantile(values.iter().map(luma).collect(), 0.99);
+    let top = percentile(&values.iter().map(luma).collect::<Vec<_>>(), 0.99);
     let readings = values
         .into_iter()
         .filter(|v| luma(v) >= 0.9 * top)
@@ -459,23 +472,13 @@ fn panel_readings(
     (readings, clipped)
 }
 
+/// The luminance of an RGB reading, as the detector weighs a photo.
 fn luma(c: &[f64; 3]) -> f64 {
-    0.299 * c[0] + 0.587 * c[1] + 0.114 * c[2]
+    f64::from(luminance(&c.map(|x| x as f32)))
 }
 
-fn median(v: Vec<f64>) -> f64 {
-    quantile(v, 0.5)
-}
-
-/// The `q` quantile of `v` (NaN for an empty `v`).
-fn quantile(mut v: Vec<f64>, q: f64) -> f64 {
-    v.retain(|x| x.is_finite());
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    v.sort_by(f64::total_cmp);
-    let k = ((v.len() - 1) as f64 * q.clamp(0.0, 1.0)).round() as usize;
-    v[k]
+fn median(v: &[f64]) -> f64 {
+    percentile(v, 0.5)
 }
 
 /// `rig` with every position's lights given the intensities and colours

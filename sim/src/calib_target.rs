@@ -90,31 +90,10 @@ pub fn board_scene(board: &Chessboard, board_to_world: DMat4, rig: &Rig) -> Scen
     let (sq_x, sq_y) = board.squares();
     // The print: outer squares from -s to cols*s, plus half a square of
     // white margin on every side.
-    let (x0, y0) = (-1.5 * s, -1.5 * s);
-    let (x1, y1) = ((f64::from(sq_x) - 0.5) * s, (f64::from(sq_y) - 0.5) * s);
-    let corner = |x: f64, y: f64| {
-        board_to_world
-            .transform_point3(DVec3::new(x, y, 0.0))
-            .as_vec3()
-    };
-    let mesh = Mesh {
-        positions: vec![
-            corner(x0, y0),
-            corner(x1, y0),
-            corner(x1, y1),
-            corner(x0, y1),
-        ],
-        normals: None,
-        // UV origin bottom left; board y runs down the print.
-        uvs: Some(vec![
-            Vec2::new(0.0, 1.0),
-            Vec2::new(1.0, 1.0),
-            Vec2::new(1.0, 0.0),
-            Vec2::new(0.0, 0.0),
-        ]),
-        // Wound so the geometric normal faces -z (the printed side).
-        triangles: vec![[0, 2, 1], [0, 3, 2]],
-    };
+    let mesh = flat_mesh(
+        board_to_world * DMat4::from_translation(DVec3::new(-1.5 * s, -1.5 * s, 0.0)),
+        [(f64::from(sq_x) + 1.0) * s, (f64::from(sq_y) + 1.0) * s],
+    );
     let t = TEXELS_PER_SQUARE;
     let (w, h) = ((sq_x + 1) * t, (sq_y + 1) * t);
     // Texel (c, r) with row 0 on top = board y smallest; the margin is half
@@ -126,6 +105,30 @@ pub fn board_scene(board: &Chessboard, board_to_world: DMat4, rig: &Rig) -> Scen
         [if black { BLACK } else { WHITE }; 3]
     });
     target_scene("chessboard", "board", mesh, Texture::Map(print), 0.7, rig)
+}
+
+/// A flat target's mesh: the rectangle `[0, w] x [0, h]` (`size`) of the
+/// plane z = 0 of the frame `to_world` maps to the world, wound so that its
+/// geometric normal faces -z (the printed or white side), UV origin bottom
+/// left with the frame's y running down the print.
+pub(crate) fn flat_mesh(to_world: DMat4, [w, h]: [f64; 2]) -> Mesh {
+    let corner = |x: f64, y: f64| to_world.transform_point3(DVec3::new(x, y, 0.0)).as_vec3();
+    Mesh {
+        positions: vec![
+            corner(0.0, 0.0),
+            corner(w, 0.0),
+            corner(w, h),
+            corner(0.0, h),
+        ],
+        normals: None,
+        uvs: Some(vec![
+            Vec2::new(0.0, 1.0),
+            Vec2::new(1.0, 1.0),
+            Vec2::new(1.0, 0.0),
+            Vec2::new(0.0, 0.0),
+        ]),
+        triangles: vec![[0, 2, 1], [0, 3, 2]],
+    }
 }
 
 /// A calibration target's scene: `mesh` of a dielectric with `basecolor`

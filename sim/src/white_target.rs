@@ -9,11 +9,10 @@
 //!
 //! Boundaries: the scenes only; the capture path renders them.
 
-use crate::calib_target::target_scene;
+use crate::calib_target::{flat_mesh, target_scene};
 use crate::scene::{Rig, Scene, Texture};
-use glam::{DMat4, DVec3, Vec2};
+use glam::{DMat4, DVec3};
 use matscan_scan::white_bundle::WhiteCard;
-use matscan_scan::Mesh;
 
 /// The simulated operator's card: its reflectance, which the daemon's
 /// `[calibration] white_albedo` and `white_roughness` default to.
@@ -46,31 +45,8 @@ pub fn empty_mount_scene(rig: &Rig, position: usize) -> Scene {
 
 /// The card's scene: `card` (its reflectance, size and pose) under `rig`.
 pub fn white_card_scene(card: &WhiteCard, rig: &Rig) -> Scene {
-    let [w, h] = card.size;
-    let corner = |x: f64, y: f64| {
-        card.card_to_world
-            .transform_point3(DVec3::new(x, y, 0.0))
-            .as_vec3()
-    };
     let albedo = card.albedo.clamp(0.0, 1.0) as f32;
-    let mesh = Mesh {
-        positions: vec![
-            corner(0.0, 0.0),
-            corner(w, 0.0),
-            corner(w, h),
-            corner(0.0, h),
-        ],
-        normals: None,
-        uvs: Some(vec![
-            Vec2::new(0.0, 1.0),
-            Vec2::new(1.0, 1.0),
-            Vec2::new(1.0, 0.0),
-            Vec2::new(0.0, 0.0),
-        ]),
-        // Wound so the geometric normal faces -z, the white side (as the
-        // board's print).
-        triangles: vec![[0, 2, 1], [0, 3, 2]],
-    };
+    let mesh = flat_mesh(card.card_to_world, card.size);
     let roughness = card.roughness.clamp(0.0, 1.0) as f32;
     target_scene(
         "white-card",

@@ -549,23 +549,9 @@ fn run_calibration(
     };
     let mut progress = progress_events(shared, id);
     let stop = || should_stop(shared);
-    let outcome = match plan {
-        CalibrationPlan::Board(board) => {
-            r.capture_calibration(board, &target, &settings, &stop, &mut prompt, &mut progress)
-        }
-        CalibrationPlan::Sphere(sphere) => r.capture_sphere(
-            sphere,
-            &target,
-            &stop,
-            &settings,
-            &mut prompt,
-            &mut progress,
-        ),
-        CalibrationPlan::White(white) => {
-            r.capture_white(white, &target, &stop, &settings, &mut prompt, &mut progress)
-        }
-    }
-    .map_err(|e| e.to_string())?;
+    let outcome = r
+        .capture_calibration(plan, &target, &settings, &stop, &mut prompt, &mut progress)
+        .map_err(|e| e.to_string())?;
     Ok((
         outcome.bundle.clone(),
         json!({

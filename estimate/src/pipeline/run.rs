@@ -196,19 +196,20 @@ pub struct PreparedScan {
 impl PreparedScan {
     /// Opens the scan at `scan` and calibrates it with `calib`.
     pub fn open(scan: &Path, calib: &CalibOptions) -> Result<PreparedScan, EstimateError> {
-        Self::open_adjusted(scan, calib, &|_| {})
+        Self::open_adjusted(scan, calib, &|_| Ok(()))
     }
 
     /// [`PreparedScan::open`] with the manifest changed by `adjust` before
-    /// calibration (an evaluation's deliberately wrong rig).
+    /// calibration (an evaluation's deliberately wrong or recalibrated
+    /// rig); its error is the scan's.
     pub fn open_adjusted(
         scan: &Path,
         calib: &CalibOptions,
-        adjust: &dyn Fn(&mut matscan_scan::Manifest),
+        adjust: &dyn Fn(&mut matscan_scan::Manifest) -> Result<(), ScanError>,
     ) -> Result<PreparedScan, EstimateError> {
         let t = Instant::now();
         let mut bundle = Bundle::open(scan)?;
-        adjust(&mut bundle.manifest);
+        adjust(&mut bundle.manifest)?;
         let load_s = t.elapsed().as_secs_f64();
         let t = Instant::now();
         let calibration = calibrate_bundle(&bundle, calib)?;

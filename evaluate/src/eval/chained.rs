@@ -120,40 +120,18 @@ pub(super) fn chained_configurations(
     // one calibration serves them all.
     let calib = EstimateOptions::default().calib;
     for (i, scan) in scans.iter().enumerate() {
-        let rig = match &args.rig_from {
-            Some(from) => {
-                let file = super::rig_from::rig_file_for(from, scan);
-                match matscan_scan::Manifest::read_rig(&file) {
-                    Ok((rig, _)) => Some((rig, file)),
-                    Err(e) => {
-                        for c in &mut out {
-                            c.failures
-                                .push(format!("estimating {}: {e}", scan.display()));
-                        }
-                        continue;
-                    }
-                }
-            }
-            None => None,
-        };
-        let rig_refused = std::cell::RefCell::new(None);
         let adjust = |m: &mut matscan_scan::Manifest| {
-            if let Some((rig, file)) = &rig {
-                if let Err(e) = m.adopt_rig(rig, file) {
-                    *rig_refused.borrow_mut() = Some(e);
-                }
+            if let Some(from) = &args.rig_from {
+                let file = super::rig_from::rig_file_for(from, scan);
+                let (rig, _) = matscan_scan::Manifest::read_rig(&file)?;
+                m.adopt_rig(&rig, &file)?;
             }
             if let Some(e) = args.rig_error {
                 e.apply(m);
             }
+            Ok(())
         };
-        let prepared =
-            PreparedScan::open_adjusted(scan, &calib, &adjust).map_err(|e| e.to_string());
-        let prepared = match rig_refused.into_inner() {
-            Some(e) => Err(format!("{e} (--rig-from)")),
-            None => prepared,
-        };
-        let prepared = match prepared {
+        let prepared = match PreparedScan::open_adjusted(scan, &calib, &adjust) {
             Ok(p) => p,
             Err(e) => {
                 for c in &mut out {

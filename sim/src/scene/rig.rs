@@ -666,23 +666,7 @@ mod tests {
     #[test]
     fn a_rig_read_back_from_its_manifest_has_its_camera_poses_and_lights() {
         let rig = &rigs()[0];
-        let manifest = Manifest {
-            units: "m".into(),
-            name: "rig".into(),
-            created: String::new(),
-            camera: rig.intrinsics,
-            positions: rig
-                .positions
-                .iter()
-                .map(|p| matscan_scan::Position {
-                    name: p.name.clone(),
-                    camera_to_world: p.camera_to_world,
-                    lights: rig_to_manifest_lights(p),
-                    captures: Vec::new(),
-                    white_reference_mask: None,
-                })
-                .collect(),
-        };
+        let manifest = crate::calib_target::truth_rig(rig);
         let back = rig_from_manifest(&manifest).unwrap();
         assert_eq!(back.intrinsics, rig.intrinsics);
         for (b, p) in back.positions.iter().zip(&rig.positions) {

@@ -13,7 +13,7 @@
 //! footswitch, as between a scan's positions; the simulated rig's
 //! operator ([`matscan_drivers::TargetHand`]) places the board itself.
 //!
-//! The light calibration ([`RigDevices::capture_sphere`]) photographs a
+//! The light calibration (a [`CalibrationPlan::Sphere`]) photographs a
 //! glossy sphere of known radius at several places before the first
 //! position's camera, each place under every light alone (ambient, the
 //! backlight for its silhouette, each flash for its highlight), and
@@ -185,25 +185,38 @@ pub struct CalibrationOutcome {
 }
 
 impl RigDevices {
-    /// Photographs the board `plan` asks for and publishes the calibration
-    /// bundle at `target` (which must not exist). `prompt` hears what the
-    /// operator is to do before each pose; `stop` and `progress` as for
-    /// [`RigDevices::capture`].
+    /// Photographs the target `plan` asks for (the board, the sphere or
+    /// the white card) and publishes its bundle at `target` (which must
+    /// not exist); the rig is left dark whatever happens. `prompt` hears
+    /// what the operator is to do before each pose; `stop` and `progress`
+    /// as for [`RigDevices::capture`].
     pub fn capture_calibration(
         &mut self,
-        plan: BoardPlan,
+        plan: CalibrationPlan,
         target: &Path,
         settings: &RunSettings,
         stop: &dyn Fn() -> bool,
         prompt: &mut dyn FnMut(&str),
         progress: &mut dyn FnMut(Progress),
     ) -> Result<CalibrationOutcome, CaptureError> {
-        let result = self.calibration_inner(plan, target, settings, stop, prompt, progress);
+        let result = match plan {
+            CalibrationPlan::Board(b) => {
+                self.board_bundle(b, target, settings, stop, prompt, progress)
+            }
+            CalibrationPlan::Sphere(s) => {
+                self.sphere_bundle(s, target, settings, stop, prompt, progress)
+            }
+            CalibrationPlan::White(w) => {
+                self.white_bundle(w, target, settings, stop, prompt, progress)
+            }
+        };
         self.leave_dark("calibration");
         result
     }
 
-    fn calibration_inner(
+    /// The board at every position, and the Gray-code poses (see the
+    /// module doc).
+    fn board_bundle(
         &mut self,
         plan: BoardPlan,
         target: &Path,
@@ -351,29 +364,13 @@ impl RigDevices {
         })
     }
 
-    /// Photographs the sphere at `plan`'s places before the first
-    /// position's camera and publishes the light-calibration bundle at
-    /// `target` (which must not exist); as [`RigDevices::capture_calibration`].
-    pub fn capture_sphere(
+    /// The sphere at `plan`'s places before the first position's camera.
+    fn sphere_bundle(
         &mut self,
         plan: SpherePlan,
         target: &Path,
-        stop: &dyn Fn() -> bool,
         settings: &RunSettings,
-        prompt: &mut dyn FnMut(&str),
-        progress: &mut dyn FnMut(Progress),
-    ) -> Result<CalibrationOutcome, CaptureError> {
-        let result = self.sphere_inner(plan, target, stop, settings, prompt, progress);
-        self.leave_dark("calibration");
-        result
-    }
-
-    fn sphere_inner(
-        &mut self,
-        plan: SpherePlan,
-        target: &Path,
         stop: &dyn Fn() -> bool,
-        settings: &RunSettings,
         prompt: &mut dyn FnMut(&str),
         progress: &mut dyn FnMut(Progress),
     ) -> Result<CalibrationOutcome, CaptureError> {
@@ -442,30 +439,15 @@ impl RigDevices {
         })
     }
 
-    /// Photographs the white card on the board's mount under every light
-    /// alone, then the first flash at `plan`'s shorter exposures, and
-    /// publishes the radiometric calibration bundle at `target` (which
-    /// must not exist); as [`RigDevices::capture_calibration`].
-    pub fn capture_white(
+    /// The backlight panel with the mount empty, the white card on the
+    /// board's mount under every light alone, then the first flash at
+    /// `plan`'s shorter exposures.
+    fn white_bundle(
         &mut self,
         plan: WhitePlan,
         target: &Path,
-        stop: &dyn Fn() -> bool,
         settings: &RunSettings,
-        prompt: &mut dyn FnMut(&str),
-        progress: &mut dyn FnMut(Progress),
-    ) -> Result<CalibrationOutcome, CaptureError> {
-        let result = self.white_inner(plan, target, stop, settings, prompt, progress);
-        self.leave_dark("calibration");
-        result
-    }
-
-    fn white_inner(
-        &mut self,
-        plan: WhitePlan,
-        target: &Path,
         stop: &dyn Fn() -> bool,
-        settings: &RunSettings,
         prompt: &mut dyn FnMut(&str),
         progress: &mut dyn FnMut(Progress),
     ) -> Result<CalibrationOutcome, CaptureError> {

@@ -326,7 +326,7 @@ fn a_calibration_prompts_the_operator_for_each_board_pose_and_publishes_the_bund
     rig.calibration_target = Some(board_target());
     let target = dir.path().join("calib-0001");
     let mut prompts = Vec::new();
-    let plan = BoardPlan::new(3, 1).unwrap();
+    let plan = CalibrationPlan::Board(BoardPlan::new(3, 1).unwrap());
     let out = with_ready_operator(button, || {
         rig.capture_calibration(
             plan,
@@ -378,12 +378,20 @@ fn a_calibration_without_a_board_or_a_projector_says_what_is_missing_and_writes_
             &mut |_| {},
         )
     };
-    let err = run(&mut rig, BoardPlan::new(3, 0).unwrap()).unwrap_err();
+    let err = run(
+        &mut rig,
+        CalibrationPlan::Board(BoardPlan::new(3, 0).unwrap()),
+    )
+    .unwrap_err();
     assert!(matches!(err, CaptureError::NoCalibrationTarget), "{err}");
     assert!(err.to_string().contains("[calibration] board"), "{err}");
     rig.calibration_target = Some(board_target());
     rig.projector = None;
-    let err = run(&mut rig, BoardPlan::new(3, 2).unwrap()).unwrap_err();
+    let err = run(
+        &mut rig,
+        CalibrationPlan::Board(BoardPlan::new(3, 2).unwrap()),
+    )
+    .unwrap_err();
     assert!(err.to_string().contains("no projector"), "{err}");
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
 }
@@ -393,11 +401,11 @@ fn a_sphere_capture_without_a_sphere_radius_says_so_and_writes_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let (mut rig, _turntable, _button) = hand_turned_rig();
     let err = rig
-        .capture_sphere(
-            SpherePlan::new(3).unwrap(),
+        .capture_calibration(
+            CalibrationPlan::Sphere(SpherePlan::new(3).unwrap()),
             &dir.path().join("calib-0001"),
-            &|| false,
             &settings(),
+            &|| false,
             &mut |_| {},
             &mut |_| {},
         )
