@@ -331,7 +331,7 @@ fn the_simulated_rigs_board_photos_calibrate_its_camera() {
     let rig = write_calibration(&out, &cal, None, Some((&truth_file, &truth)))
         .unwrap()
         .unwrap();
-    let (written, _) = Manifest::read_rig(&rig).unwrap();
+    let (written, _) = Manifest::read_rig(&rig.path).unwrap();
     assert_eq!(written.positions[1].lights, truth.positions[1].lights);
     assert_eq!(written.camera.width, 512);
 }

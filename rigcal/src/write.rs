@@ -85,14 +85,22 @@ pub fn rig_manifest(
     }
 }
 
+/// A rig file written: where, and what it holds (so the next step needs
+/// not read it back).
+#[derive(Debug, Clone, PartialEq)]
+pub struct WrittenRig {
+    pub path: PathBuf,
+    pub rig: Manifest,
+}
+
 /// Writes the report and, when the calibration was accepted, the rig file
-/// into `out_dir`; returns the rig file's path, or `None` when refused.
+/// into `out_dir`; returns the rig file, or `None` when refused.
 pub fn write_calibration(
     out_dir: &Path,
     calibration: &CameraCalibration,
     projector: Option<&ProjectorCalibration>,
     lights_from: Option<(&Path, &Manifest)>,
-) -> Result<Option<PathBuf>, RigcalError> {
+) -> Result<Option<WrittenRig>, RigcalError> {
     std::fs::create_dir_all(out_dir).map_err(|e| {
         RigcalError::Scan(matscan_scan::ScanError::Io {
             path: out_dir.to_path_buf(),
@@ -126,7 +134,7 @@ pub fn write_calibration(
     );
     let path = out_dir.join(RIG_FILE);
     write_atomic(&path, rig.to_toml().as_bytes())?;
-    Ok(Some(path))
+    Ok(Some(WrittenRig { path, rig }))
 }
 
 /// The light calibration's report file.
@@ -134,13 +142,13 @@ pub const LIGHTS_REPORT_FILE: &str = "lights-report.toml";
 
 /// Writes `rig` with its flashes where `lights` found them as `rig.toml`
 /// in `out_dir`, and `lights-report.toml` beside it (each atomically);
-/// `rig_path` names the rig file it came from. Returns the rig file's path.
+/// `rig_path` names the rig file it came from. Returns the rig file.
 pub fn write_lights(
     out_dir: &Path,
     rig: &Manifest,
     lights: &crate::lights::LightCalibration,
     rig_path: &Path,
-) -> Result<PathBuf, RigcalError> {
+) -> Result<WrittenRig, RigcalError> {
     #[derive(serde::Serialize)]
     struct Flash {
         name: String,
@@ -200,18 +208,17 @@ pub fn write_lights(
             .collect(),
     };
     let moved = crate::lights::flashes_in_world(rig, lights);
-    publish(out_dir, LIGHTS_REPORT_FILE, &report, &moved)
+    publish(out_dir, LIGHTS_REPORT_FILE, &report, moved)
 }
 
 /// Writes `report` as `out_dir/report_file` and `rig` as `out_dir/rig.toml`
-/// (each atomically, the folder made if missing); returns the rig file's
-/// path.
+/// (each atomically, the folder made if missing); returns the rig file.
 fn publish(
     out_dir: &Path,
     report_file: &str,
     report: &impl Serialize,
-    rig: &Manifest,
-) -> Result<PathBuf, RigcalError> {
+    rig: Manifest,
+) -> Result<WrittenRig, RigcalError> {
     std::fs::create_dir_all(out_dir).map_err(|e| {
         RigcalError::Scan(matscan_scan::ScanError::Io {
             path: out_dir.to_path_buf(),
@@ -223,7 +230,7 @@ fn publish(
     write_atomic(&out_dir.join(report_file), text.as_bytes())?;
     let path = out_dir.join(RIG_FILE);
     write_atomic(&path, rig.to_toml().as_bytes())?;
-    Ok(path)
+    Ok(WrittenRig { path, rig })
 }
 
 /// The radiometric calibration's report file in the output folder.
@@ -232,13 +239,13 @@ pub const WHITE_REPORT_FILE: &str = "white-report.toml";
 /// Writes `rig` with every light's intensity and colour from `radiometry`
 /// as `out_dir/rig.toml`, and `white-report.toml` beside it (each light's
 /// figures and the linearity readings, and the rig file it started from).
-/// Returns the rig file's path.
+/// Returns the rig file.
 pub fn write_radiometry(
     out_dir: &Path,
     rig: &Manifest,
     radiometry: &crate::radiometry::Radiometry,
     rig_path: &Path,
-) -> Result<PathBuf, RigcalError> {
+) -> Result<WrittenRig, RigcalError> {
     #[derive(serde::Serialize)]
     struct Level {
         name: String,
@@ -289,5 +296,5 @@ pub fn write_radiometry(
             .collect(),
     };
     let measured = crate::radiometry::intensities_in_rig(rig, radiometry);
-    publish(out_dir, WHITE_REPORT_FILE, &report, &measured)
+    publish(out_dir, WHITE_REPORT_FILE, &report, measured)
 }

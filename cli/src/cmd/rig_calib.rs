@@ -10,7 +10,7 @@ use matscan_rigcal::projector::calibrate_projector;
 use matscan_rigcal::radiometry::calibrate_radiometry;
 use matscan_rigcal::sheet::write_contact_sheet;
 use matscan_rigcal::write::{write_calibration, REPORT_FILE};
-use matscan_rigcal::write::{write_lights, write_radiometry};
+use matscan_rigcal::write::{write_lights, write_radiometry, WrittenRig};
 use matscan_rigcal::{calibrate_camera, Acceptance};
 use matscan_scan::calib_bundle::CalibManifest;
 use matscan_scan::lights_bundle::LightsManifest;
@@ -140,50 +140,35 @@ pub fn run_rig(a: RigArgs) -> Result<()> {
             r.pose_spread_deg
         );
     }
-    match written {
-        Some(path) => {
-            println!(
-                "wrote {}, {} and {}",
-                path.display(),
-                out.join(REPORT_FILE).display(),
-                sheet.display()
-            );
-            if let Some(spheres) = &a.spheres {
-                let manifest = LightsManifest::read(spheres).with_context(|| {
-                    format!("reading light-calibration bundle {}", spheres.display())
-                })?;
-                let (rig, _) = Manifest::read_rig(&path)
-                    .with_context(|| format!("reading rig file {}", path.display()))?;
-                let lights = calibrate_lights(spheres, &manifest, &rig)
-                    .with_context(|| format!("locating the flashes from {}", spheres.display()))?;
-                let written = write_lights(&out, &rig, &lights, &path)
-                    .with_context(|| format!("writing the lights to {}", out.display()))?;
-                print_lights(&lights);
-                println!("wrote the flashes into {}", written.display());
-                if let Some(white) = &a.white {
-                    let (rig, _) = Manifest::read_rig(&written)
-                        .with_context(|| format!("reading rig file {}", written.display()))?;
-                    let written = radiometry(white, &rig, &written, &out)?;
-                    println!("wrote the intensities into {}", written.display());
-                }
-            }
-            Ok(())
+    let Some(mut written) = written else {
+        eprintln!(
+            "calibration refused (see {} and {}):",
+            out.join(REPORT_FILE).display(),
+            sheet.display()
+        );
+        for p in &r.problems {
+            eprintln!("  - {p}");
         }
-        None => {
-            eprintln!(
-                "calibration refused (see {} and {}):",
-                out.join(REPORT_FILE).display(),
-                sheet.display()
-            );
-            for p in &r.problems {
-                eprintln!("  - {p}");
-            }
-            for f in &r.retake {
-                eprintln!("  retake {}", f.display());
-            }
-            std::process::exit(2)
+        for f in &r.retake {
+            eprintln!("  retake {}", f.display());
         }
+        std::process::exit(2)
+    };
+    println!(
+        "wrote {}, {} and {}",
+        written.path.display(),
+        out.join(REPORT_FILE).display(),
+        sheet.display()
+    );
+    if let Some(spheres) = &a.spheres {
+        written = locate_flashes(spheres, &written.rig, &written.path, &out)?;
+        println!("wrote the flashes into {}", written.path.display());
     }
+    if let Some(white) = &a.white {
+        written = radiometry(white, &written.rig, &written.path, &out)?;
+        println!("wrote the intensities into {}", written.path.display());
+    }
+    Ok(())
 }
 
 /// Runs `matscan calib board`: the simulated rig's board photos.
@@ -320,7 +305,7 @@ pub struct RadiometryArgs {
 /// Measures the intensities from the white-card bundle at `bundle` with
 /// `rig` (read from `rig_path`), prints them and writes the rig file and
 /// report into `out`; returns the rig file's path.
-fn radiometry(bundle: &Path, rig: &Manifest, rig_path: &Path, out: &Path) -> Result<PathBuf> {
+fn radiometry(bundle: &Path, rig: &Manifest, rig_path: &Path, out: &Path) -> Result<WrittenRig> {
     let manifest = WhiteManifest::read(bundle).with_context(|| {
         format!(
             "reading radiometric calibration bundle {}",
@@ -369,24 +354,38 @@ pub fn run_radiometry(a: RadiometryArgs) -> Result<()> {
         .with_context(|| format!("reading rig file {}", a.rig.display()))?;
     let out = a.out.unwrap_or_else(|| a.bundle.join("result"));
     let written = radiometry(&a.bundle, &rig, &a.rig, &out)?;
-    println!("wrote {}", written.display());
+    println!("wrote {}", written.path.display());
     Ok(())
+}
+
+/// Locates the flashes from the sphere bundle at `bundle` with `rig` (read
+/// from `rig_path`), prints them and writes the rig file and report into
+/// `out`.
+fn locate_flashes(
+    bundle: &Path,
+    rig: &Manifest,
+    rig_path: &Path,
+    out: &Path,
+) -> Result<WrittenRig> {
+    let manifest = LightsManifest::read(bundle)
+        .with_context(|| format!("reading light-calibration bundle {}", bundle.display()))?;
+    let t = Instant::now();
+    let lights = calibrate_lights(bundle, &manifest, rig)
+        .with_context(|| format!("locating the flashes from {}", bundle.display()))?;
+    let seconds = t.elapsed().as_secs_f64();
+    let written = write_lights(out, rig, &lights, rig_path)
+        .with_context(|| format!("writing the lights to {}", out.display()))?;
+    print_lights(&lights);
+    println!("{seconds:.2} s");
+    Ok(written)
 }
 
 /// Runs `matscan calib lights`.
 pub fn run_lights(a: LightsArgs) -> Result<()> {
-    let manifest = LightsManifest::read(&a.bundle)
-        .with_context(|| format!("reading light-calibration bundle {}", a.bundle.display()))?;
     let (rig, _) = Manifest::read_rig(&a.rig)
         .with_context(|| format!("reading rig file {}", a.rig.display()))?;
-    let t = Instant::now();
-    let lights = calibrate_lights(&a.bundle, &manifest, &rig)
-        .with_context(|| format!("locating the flashes from {}", a.bundle.display()))?;
-    let seconds = t.elapsed().as_secs_f64();
     let out = a.out.unwrap_or_else(|| a.bundle.join("result"));
-    let written = write_lights(&out, &rig, &lights, &a.rig)
-        .with_context(|| format!("writing the lights to {}", out.display()))?;
-    print_lights(&lights);
-    println!("{seconds:.2} s; wrote {}", written.display());
+    let written = locate_flashes(&a.bundle, &rig, &a.rig, &out)?;
+    println!("wrote {}", written.path.display());
     Ok(())
 }
