@@ -387,6 +387,9 @@ pub enum TargetPlacement {
     /// object stands, on its easel. It ties each position's camera to the
     /// world frame.
     Reference,
+    /// On the mount's further seat, the same at every position: the board
+    /// turned away from the reference placement.
+    Seat,
     /// Anywhere the camera sees it whole, tilted differently each time.
     HandHeld,
     /// Where both the camera and the projector see it whole.

@@ -1,7 +1,7 @@
 //! How the calibration's design decides a camera's pose error: noisy
 //! synthetic corners of the simulated rig's board (the true projection plus
 //! Gaussian noise of 0.05 px per coordinate, about a 1024 px render's)
-//! through the same solver as `matscan calib rig`, 24 random draws per
+//! through the same solver as `matscan calib rig`, 64 random draws per
 //! design on the rigs of `matscan calib board --seed 1..3`. Prints, per
 //! rig and design, the worst position's camera error (median and 90th
 //! percentile over the draws), and the focal length's and principal
@@ -13,16 +13,19 @@
 //!
 //! A design is the shots per position, the hand-held tilt range, the
 //! hand-held distance range (times the working distance), the reference
-//! board's lean (degrees about the world x axis; negative: the placement
+//! board's lean (degrees about the world x axis; `None`: the placement
 //! `matscan_sim::calib_target::reference_placement` chooses, every camera
-//! near 45 degrees) and the board's inner corners.
+//! near 45 degrees), the board's inner corners, the photos of each resting
+//! placement (repeated photos of a board that does not move, each with
+//! its own noise) and whether the mount's second seat
+//! (`matscan_sim::calib_target::seat_placement`) is photographed too.
 use glam::{DMat4, DQuat, DVec2, DVec3};
 use matscan_rigcal::camera::{solve_camera, Acceptance};
 use matscan_rigcal::compare::pose_difference;
 use matscan_rigcal::detect::Corner;
 use matscan_rigcal::model::{project, Pose};
-use matscan_scan::calib_bundle::{CalibManifest, CalibPosition, Shot};
-use matscan_sim::calib_target::{board_for, held_pose, Hold};
+use matscan_scan::calib_bundle::{BoardPlacement, CalibManifest, CalibPosition, Shot, SEAT};
+use matscan_sim::calib_target::{board_for, held_pose, seat_placement, Hold};
 use matscan_sim::scene::{random_rig, RigOptions};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
@@ -31,16 +34,21 @@ use std::path::{Path, PathBuf};
 /// Corner noise per coordinate, pixels.
 const NOISE_PX: f64 = 0.05;
 /// Random draws per rig and design.
-const DRAWS: u64 = 24;
+const DRAWS: u64 = 64;
 
 struct Design {
     name: &'static str,
+    /// Photos per position: the reference and the hand-held poses.
     shots: usize,
     tilt_deg: (f64, f64),
     distance: (f64, f64),
     /// `None`: the simulated operator's placement.
     lean_deg: Option<f64>,
     corners: (u32, u32),
+    /// Photos of each resting placement.
+    photos_per_seat: usize,
+    /// The mount's second seat photographed at every position too.
+    seat: bool,
 }
 
 struct Errors {
@@ -49,7 +57,7 @@ struct Errors {
     principal_px: f64,
 }
 
-const DESIGNS: [Design; 5] = [
+const DESIGNS: [Design; 9] = [
     Design {
         name: "lean 25 deg about x, 9x6",
         shots: 8,
@@ -57,6 +65,8 @@ const DESIGNS: [Design; 5] = [
         distance: (0.8, 1.1),
         lean_deg: Some(25.0),
         corners: (9, 6),
+        photos_per_seat: 1,
+        seat: false,
     },
     Design {
         name: "every camera near 45 deg, 9x6",
@@ -65,6 +75,8 @@ const DESIGNS: [Design; 5] = [
         distance: (0.8, 1.1),
         lean_deg: None,
         corners: (9, 6),
+        photos_per_seat: 1,
+        seat: false,
     },
     Design {
         name: "lean 25 deg about x, 13x9",
@@ -73,6 +85,8 @@ const DESIGNS: [Design; 5] = [
         distance: (0.8, 1.1),
         lean_deg: Some(25.0),
         corners: (13, 9),
+        photos_per_seat: 1,
+        seat: false,
     },
     Design {
         name: "every camera near 45 deg, 13x9",
@@ -81,6 +95,8 @@ const DESIGNS: [Design; 5] = [
         distance: (0.8, 1.1),
         lean_deg: None,
         corners: (13, 9),
+        photos_per_seat: 1,
+        seat: false,
     },
     Design {
         name: "every camera near 45 deg, 13x9, 12 shots",
@@ -89,6 +105,48 @@ const DESIGNS: [Design; 5] = [
         distance: (0.8, 1.1),
         lean_deg: None,
         corners: (13, 9),
+        photos_per_seat: 1,
+        seat: false,
+    },
+    Design {
+        name: "every camera near 45 deg, 13x9, 16 shots tilted 20 to 50 deg",
+        shots: 16,
+        tilt_deg: (20.0, 50.0),
+        distance: (0.8, 1.1),
+        lean_deg: None,
+        corners: (13, 9),
+        photos_per_seat: 1,
+        seat: false,
+    },
+    Design {
+        name: "every camera near 45 deg, 13x9, reference photographed 4 times",
+        shots: 8,
+        tilt_deg: (10.0, 40.0),
+        distance: (0.8, 1.1),
+        lean_deg: None,
+        corners: (13, 9),
+        photos_per_seat: 4,
+        seat: false,
+    },
+    Design {
+        name: "every camera near 45 deg, 13x9, second seat",
+        shots: 8,
+        tilt_deg: (10.0, 40.0),
+        distance: (0.8, 1.1),
+        lean_deg: None,
+        corners: (13, 9),
+        photos_per_seat: 1,
+        seat: true,
+    },
+    Design {
+        name: "every camera near 45 deg, 13x9, second seat, each seat photographed 4 times",
+        shots: 8,
+        tilt_deg: (10.0, 40.0),
+        distance: (0.8, 1.1),
+        lean_deg: None,
+        corners: (13, 9),
+        photos_per_seat: 4,
+        seat: true,
     },
 ];
 
@@ -121,28 +179,38 @@ fn trial(seed: u64, draw: u64, design: &Design) -> Option<Errors> {
             DMat4::from_rotation_translation(DQuat::from_mat3(&rotation), -(rotation * centre))
         }
     };
+    // The resting placements every position photographs, board to world.
+    let mut resting: Vec<(BoardPlacement, DMat4)> =
+        vec![(BoardPlacement::Reference, reference); design.photos_per_seat];
+    if design.seat {
+        let seat = seat_placement(&board, &rig);
+        resting.extend(std::iter::repeat_n(
+            (BoardPlacement::Seat(SEAT.into()), seat),
+            design.photos_per_seat,
+        ));
+    }
     let mut rng = Pcg64::seed_from_u64(1000 + draw);
     let mut detections = Vec::new();
     let mut positions = Vec::new();
     for (p, at) in rig.positions.iter().enumerate() {
         let w2c = at.camera_to_world.inverse();
         let mut list = Vec::new();
-        for s in 0..design.shots {
-            let b2w = if s == 0 {
-                reference
-            } else {
-                held_pose(
-                    &mut rng,
-                    &board,
-                    &rig,
-                    at.camera_to_world,
-                    None,
-                    Hold {
-                        tilt_deg: design.tilt_deg,
-                        distance: design.distance,
-                    },
-                )?
-            };
+        let mut placed = resting.clone();
+        for _ in 1..design.shots {
+            let held = held_pose(
+                &mut rng,
+                &board,
+                &rig,
+                at.camera_to_world,
+                None,
+                Hold {
+                    tilt_deg: design.tilt_deg,
+                    distance: design.distance,
+                },
+            )?;
+            placed.push((BoardPlacement::Held, held));
+        }
+        for (s, (placement, b2w)) in placed.into_iter().enumerate() {
             let pose_c = Pose::from_matrix(&(w2c * b2w));
             let corners: Vec<Corner> = (0..board.rows)
                 .flat_map(|j| (0..board.cols).map(move |i| (i, j)))
@@ -156,7 +224,7 @@ fn trial(seed: u64, draw: u64, design: &Design) -> Option<Errors> {
             detections.push(corners);
             list.push(Shot {
                 file: PathBuf::from(format!("p{p}/b{s}.exr")),
-                reference: s == 0,
+                placement,
                 graycode: None,
             });
         }

@@ -10,7 +10,7 @@ use crate::sheet::thumbnail;
 use crate::zhang;
 use glam::{DMat4, DVec2};
 use image::GrayImage;
-use matscan_scan::calib_bundle::CalibManifest;
+use matscan_scan::calib_bundle::{BoardPlacement, CalibManifest};
 use matscan_scan::camera::Intrinsics;
 use matscan_scan::image_io::read_rgb;
 use matscan_scan::raster::RgbRaster;
@@ -58,6 +58,9 @@ pub struct ShotReport {
     pub position: String,
     pub file: PathBuf,
     pub reference: bool,
+    /// The mount's seat the board rested on, if a further one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub seat: Option<String>,
     pub corners: usize,
     pub rms_px: f64,
     pub max_px: f64,
@@ -203,6 +206,12 @@ pub fn calibrate_camera(
 
 /// The camera from corners already found: one list per shot, in the
 /// manifest's order (positions, then shots); `dir` names photos in errors.
+///
+/// A position's shots of a resting board (the reference and any further
+/// seat) share that position's one camera pose; a seat's own placement is
+/// unknown and shared by every position that photographed it, so the
+/// reference and a seat at another angle make a target with depth, which
+/// parts a camera's distance from its focal length.
 pub fn solve_camera(
     dir: &Path,
     manifest: &CalibManifest,
@@ -220,9 +229,12 @@ pub fn solve_camera(
     }
     let points: Vec<ShotPoints> = detections
         .iter()
-        .map(|corners| ShotPoints {
+        .enumerate()
+        .map(|(k, corners)| ShotPoints {
             board: corners.iter().map(|c| board.corner(c.i, c.j)).collect(),
             pixels: corners.iter().map(|c| c.pixel).collect(),
+            pose: k,
+            placement: None,
         })
         .collect();
     let homographies = points
@@ -239,7 +251,7 @@ pub fn solve_camera(
         })
         .collect::<Result<Vec<_>, _>>()?;
     let start = zhang::intrinsics(&homographies, width, height)?;
-    let mut poses = Vec::with_capacity(shots.len());
+    let mut shot_poses = Vec::with_capacity(shots.len());
     for (h, (_, shot)) in homographies.iter().zip(&shots) {
         let path = dir.join(&shot.file);
         let pose = zhang::pose(h, &start).ok_or_else(|| {
@@ -252,11 +264,94 @@ pub fn solve_camera(
                 limit_deg: acceptance.max_tilt_deg,
             });
         }
-        poses.push(pose);
+        shot_poses.push(pose);
     }
-    let refined = refine(&start, &poses, &points, crate::refine::CAMERA_FIXED);
+    // The unknown poses: one per position (the reference board's frame to
+    // the camera), one per held shot, one per seat (its board's frame to
+    // the reference board's).
+    let mut poses: Vec<Pose> = Vec::new();
+    let mut position_pose: Vec<Option<usize>> = vec![None; manifest.positions.len()];
+    let mut seats: Vec<(&str, usize)> = Vec::new();
+    let mut fit_points = Vec::with_capacity(points.len());
+    // Reference shots first, so each position's pose starts from its view
+    // of the reference and every seat from the first position that saw
+    // both.
+    let order: Vec<usize> = (0..points.len())
+        .filter(|&k| shots[k].1.placement == BoardPlacement::Reference)
+        .chain((0..points.len()).filter(|&k| shots[k].1.placement != BoardPlacement::Reference))
+        .collect();
+    let mut assigned: Vec<Option<ShotPoints>> = vec![None; points.len()];
+    for k in order {
+        let (p, shot) = shots[k];
+        fn own(poses: &mut Vec<Pose>, pose: Pose) -> usize {
+            poses.push(pose);
+            poses.len() - 1
+        }
+        let (pose, placement) = match &shot.placement {
+            BoardPlacement::Held => (own(&mut poses, shot_poses[k]), None),
+            BoardPlacement::Reference => (
+                *position_pose[p].get_or_insert_with(|| own(&mut poses, shot_poses[k])),
+                None,
+            ),
+            BoardPlacement::Seat(name) => {
+                let Some(index) = position_pose[p] else {
+                    return Err(RigcalError::Degenerate(format!(
+                        "{}: a board on seat {name} needs the reference photographed from the \
+                         same position",
+                        dir.join(&shot.file).display()
+                    )));
+                };
+                let seat = match seats.iter().find(|(n, _)| n == name) {
+                    Some(&(_, i)) => i,
+                    None => {
+                        let start = poses[index].matrix().inverse() * shot_poses[k].matrix();
+                        let i = own(&mut poses, Pose::from_matrix(&start));
+                        seats.push((name, i));
+                        i
+                    }
+                };
+                (index, Some(seat))
+            }
+        };
+        assigned[k] = Some(ShotPoints {
+            board: points[k].board.clone(),
+            pixels: points[k].pixels.clone(),
+            pose,
+            placement,
+        });
+    }
+    fit_points.extend(assigned.into_iter().flatten());
+    let mut refined = refine(&start, &poses, &fit_points, crate::refine::CAMERA_FIXED);
+    let camera_to_world = manifest
+        .positions
+        .iter()
+        .zip(&position_pose)
+        .map(|(position, index)| {
+            let reference = index.map_or(DMat4::IDENTITY, |i| refined.poses[i].matrix());
+            (
+                position.name.clone(),
+                manifest.reference_to_world * reference.inverse(),
+            )
+        })
+        .collect();
+    // Each shot's own board-to-camera pose, for the report and the projector.
+    refined.poses = fit_points
+        .iter()
+        .map(|sp| {
+            let pose = refined.poses[sp.pose];
+            sp.placement.map_or(pose, |seat| {
+                Pose::from_matrix(&(pose.matrix() * refined.poses[seat].matrix()))
+            })
+        })
+        .collect();
     Ok(judge(
-        manifest, &shots, detections, &points, refined, acceptance,
+        manifest,
+        &shots,
+        detections,
+        &points,
+        refined,
+        camera_to_world,
+        acceptance,
     ))
 }
 
@@ -266,6 +361,7 @@ fn judge(
     detections: Vec<Vec<Corner>>,
     points: &[ShotPoints],
     refined: crate::refine::Refined,
+    camera_to_world: Vec<(String, DMat4)>,
     acceptance: &Acceptance,
 ) -> CameraCalibration {
     let camera = refined.camera;
@@ -298,7 +394,11 @@ fn judge(
         reports.push(ShotReport {
             position: manifest.positions[*p].name.clone(),
             file: shot.file.clone(),
-            reference: shot.reference,
+            reference: shot.placement == BoardPlacement::Reference,
+            seat: match &shot.placement {
+                BoardPlacement::Seat(name) => Some(name.clone()),
+                _ => None,
+            },
             corners: errors.len(),
             rms_px: (squares / errors.len().max(1) as f64).sqrt(),
             max_px: errors.iter().copied().fold(0.0, f64::max),
@@ -337,22 +437,6 @@ fn judge(
             100.0 * acceptance.min_coverage
         ));
     }
-    let camera_to_world = manifest
-        .positions
-        .iter()
-        .enumerate()
-        .map(|(p, position)| {
-            let reference = shots
-                .iter()
-                .position(|(q, s)| *q == p && s.reference)
-                .map(|k| refined.poses[k].matrix())
-                .unwrap_or(DMat4::IDENTITY);
-            (
-                position.name.clone(),
-                manifest.reference_to_world * reference.inverse(),
-            )
-        })
-        .collect();
     CameraCalibration {
         camera,
         camera_to_world,

@@ -115,7 +115,8 @@ pub fn calibrate_projector(
     let mut points = Vec::with_capacity(found.len());
     let mut finest = Vec::with_capacity(found.len());
     for r in found {
-        let (p, f) = r?;
+        let (mut p, f) = r?;
+        p.pose = points.len();
         points.push(p);
         finest.push(f);
     }
@@ -292,6 +293,8 @@ fn projector_points(
     let mut out = ShotPoints {
         board: Vec::new(),
         pixels: Vec::new(),
+        pose: 0,
+        placement: None,
     };
     for (corner, r) in corners.iter().zip(spacing) {
         let (x0, x1) = (

@@ -3,9 +3,17 @@
 //! together to minimise the squared reprojection error of every corner, by
 //! Levenberg-Marquardt.
 //!
+//! Shots may share a pose: the photos of a board resting in place from one
+//! camera position all hang on that position's one pose, so each adds its
+//! corners to it instead of a pose of its own. A shot may also name a
+//! second pose, its placement: the board's frame in the frame its pose
+//! maps, shared by every position that photographed the board resting
+//! there (a placement nobody measured, found from all of them together).
+//!
 //! Each corner's residual depends on the 9 intrinsics and its own shot's 6
-//! pose parameters only, so the normal equations are accumulated block by
-//! block (15 x 15 per corner) into one small dense system (9 + 6 per shot)
+//! (or 12) pose parameters only, so the normal equations are accumulated
+//! block by block (at most 21 x 21 per corner) into one small dense system
+//! (9 + 6 per pose)
 //! and solved by Cholesky, instead of factoring the whole Jacobian: a
 //! 60-shot calibration is a 369-unknown system. Derivatives are central
 //! differences, exact enough for a least-squares step at these scales.
@@ -15,11 +23,17 @@ use glam::{DVec2, DVec3};
 use matscan_scan::camera::Intrinsics;
 use nalgebra::{DMatrix, DVector};
 
-/// One shot's corners: board-frame points and where the photo shows them.
+/// One shot's corners: points in the frame of its pose and where the photo
+/// shows them.
 #[derive(Debug, Clone)]
 pub struct ShotPoints {
     pub board: Vec<DVec3>,
     pub pixels: Vec<DVec2>,
+    /// Index of the shot's pose among the refined poses.
+    pub pose: usize,
+    /// Index of a pose that maps `board` into the frame `pose` maps first
+    /// (a resting board's unknown placement), if any.
+    pub placement: Option<usize>,
 }
 
 /// The refined camera and poses, with the statistics the report needs.
@@ -34,7 +48,7 @@ pub struct Refined {
     pub iterations: usize,
 }
 
-const PER_POINT: usize = INTRINSIC_COUNT + POSE_COUNT;
+const PER_POINT: usize = INTRINSIC_COUNT + 2 * POSE_COUNT;
 /// The camera's intrinsics held at their start: k3 (0), which shapes only
 /// the field's far edge, where a board rarely reaches, and elsewhere trades
 /// off against k2 (OpenCV's `CALIB_FIX_K3` for ordinary lenses).
@@ -45,31 +59,49 @@ const MAX_ITERATIONS: usize = 200;
 
 struct Problem<'a> {
     shots: &'a [ShotPoints],
+    poses: usize,
     width: u32,
     height: u32,
 }
 
 impl Problem<'_> {
     fn unknowns(&self) -> usize {
-        INTRINSIC_COUNT + POSE_COUNT * self.shots.len()
+        INTRINSIC_COUNT + POSE_COUNT * self.poses
     }
 
-    fn residual(&self, intr: &[f64], pose: &[f64], x: DVec3, observed: DVec2) -> DVec2 {
+    /// `placement` is empty for a shot without one.
+    fn residual(
+        &self,
+        intr: &[f64],
+        pose: &[f64],
+        placement: &[f64],
+        x: DVec3,
+        observed: DVec2,
+    ) -> DVec2 {
         let camera = unpack_intrinsics(intr, self.width, self.height);
+        let x = if placement.is_empty() {
+            x
+        } else {
+            Pose::unpack(placement).apply(x)
+        };
         project(&camera, &Pose::unpack(pose), x) - observed
+    }
+
+    fn pose(params: &[f64], index: usize) -> &[f64] {
+        &params[INTRINSIC_COUNT + POSE_COUNT * index..][..POSE_COUNT]
     }
 
     fn cost(&self, params: &[f64]) -> f64 {
         let intr = &params[..INTRINSIC_COUNT];
         self.shots
             .iter()
-            .enumerate()
-            .map(|(s, shot)| {
-                let pose = &params[INTRINSIC_COUNT + POSE_COUNT * s..][..POSE_COUNT];
+            .map(|shot| {
+                let pose = Self::pose(params, shot.pose);
+                let placement = shot.placement.map_or(&[][..], |k| Self::pose(params, k));
                 shot.board
                     .iter()
                     .zip(&shot.pixels)
-                    .map(|(&x, &p)| self.residual(intr, pose, x, p).length_squared())
+                    .map(|(&x, &p)| self.residual(intr, pose, placement, x, p).length_squared())
                     .sum::<f64>()
             })
             .sum()
@@ -81,24 +113,38 @@ impl Problem<'_> {
         let mut jtj = DMatrix::<f64>::zeros(n, n);
         let mut jtr = DVector::<f64>::zeros(n);
         let mut local = [0.0f64; PER_POINT];
-        for (s, shot) in self.shots.iter().enumerate() {
-            let offset = INTRINSIC_COUNT + POSE_COUNT * s;
+        const SECOND: usize = INTRINSIC_COUNT + POSE_COUNT;
+        for shot in self.shots {
+            let offset = INTRINSIC_COUNT + POSE_COUNT * shot.pose;
+            let placed = shot.placement.map(|k| INTRINSIC_COUNT + POSE_COUNT * k);
+            let used = if placed.is_some() { PER_POINT } else { SECOND };
             local[..INTRINSIC_COUNT].copy_from_slice(&params[..INTRINSIC_COUNT]);
-            local[INTRINSIC_COUNT..].copy_from_slice(&params[offset..offset + POSE_COUNT]);
+            local[INTRINSIC_COUNT..SECOND].copy_from_slice(&params[offset..offset + POSE_COUNT]);
+            if let Some(o) = placed {
+                local[SECOND..].copy_from_slice(&params[o..o + POSE_COUNT]);
+            }
             let index = |k: usize| {
                 if k < INTRINSIC_COUNT {
                     k
-                } else {
+                } else if k < SECOND {
                     offset + k - INTRINSIC_COUNT
+                } else {
+                    placed.unwrap_or(0) + k - SECOND
                 }
             };
             for (&x, &p) in shot.board.iter().zip(&shot.pixels) {
                 let eval = |l: &[f64; PER_POINT]| {
-                    self.residual(&l[..INTRINSIC_COUNT], &l[INTRINSIC_COUNT..], x, p)
+                    self.residual(
+                        &l[..INTRINSIC_COUNT],
+                        &l[INTRINSIC_COUNT..SECOND],
+                        &l[SECOND..used],
+                        x,
+                        p,
+                    )
                 };
                 let r = eval(&local);
                 let mut jac = [DVec2::ZERO; PER_POINT];
-                for (k, column) in jac.iter_mut().enumerate() {
+                for (k, column) in jac.iter_mut().enumerate().take(used) {
                     let h = 1e-6 * local[k].abs().max(1e-3);
                     let mut plus = local;
                     plus[k] += h;
@@ -106,7 +152,7 @@ impl Problem<'_> {
                     minus[k] -= h;
                     *column = (eval(&plus) - eval(&minus)) / (2.0 * h);
                 }
-                for a in 0..PER_POINT {
+                for a in 0..used {
                     let ia = index(a);
                     jtr[ia] += jac[a].dot(r);
                     for b in 0..=a {
@@ -124,8 +170,10 @@ impl Problem<'_> {
     }
 }
 
-/// Refines `camera` and `poses` (one per shot) against the shots' corners.
-/// `fixed` lists intrinsics (by solver index) held at their start.
+/// Refines `camera` and `poses` against the shots' corners (each shot
+/// names its pose; every index must be below `poses.len()`, and a pose no
+/// shot names stays where it starts). `fixed` lists intrinsics (by solver
+/// index) held at their start.
 pub fn refine(
     camera: &Intrinsics,
     poses: &[Pose],
@@ -134,6 +182,7 @@ pub fn refine(
 ) -> Refined {
     let problem = Problem {
         shots,
+        poses: poses.len(),
         width: camera.width,
         height: camera.height,
     };
@@ -162,7 +211,7 @@ pub fn refine(
     let params = &solution.params;
     Refined {
         camera: unpack_intrinsics(params, camera.width, camera.height),
-        poses: (0..shots.len())
+        poses: (0..poses.len())
             .map(|s| Pose::unpack(&params[INTRINSIC_COUNT + POSE_COUNT * s..][..POSE_COUNT]))
             .collect(),
         sigma,

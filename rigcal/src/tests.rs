@@ -9,7 +9,7 @@ use crate::model::{project, Pose};
 use crate::write::{rig_manifest, write_calibration, REPORT_FILE, RIG_FILE};
 use crate::zhang::homography;
 use glam::{DMat4, DQuat, DVec2, DVec3};
-use matscan_scan::calib_bundle::{CalibManifest, CalibPosition, Chessboard, Shot};
+use matscan_scan::calib_bundle::{BoardPlacement, CalibManifest, CalibPosition, Chessboard, Shot};
 use matscan_scan::camera::Intrinsics;
 use matscan_scan::raster::RgbRaster;
 use matscan_scan::Manifest;
@@ -69,7 +69,11 @@ fn manifest(positions: usize, shots: usize) -> CalibManifest {
                 shots: (0..shots)
                     .map(|s| Shot {
                         file: PathBuf::from(format!("p{p}/board-{s:02}.exr")),
-                        reference: s == 0,
+                        placement: if s == 0 {
+                            BoardPlacement::Reference
+                        } else {
+                            BoardPlacement::Held
+                        },
                         graycode: None,
                     })
                     .collect(),
@@ -144,6 +148,47 @@ fn noisy_corners_of_a_known_camera_give_it_back() {
     }
     let sigma = cal.report.sigma.unwrap();
     assert!(sigma[0] > 0.0 && sigma[0] < 2.0, "{sigma:?}");
+}
+
+#[test]
+fn a_board_on_a_second_seat_is_placed_and_joins_each_positions_camera() {
+    let camera = true_camera();
+    let held = poses(12, 35.0);
+    // Two positions: the reference (the world) seen from each, then the
+    // seat, the reference turned 35 degrees about its vertical through its
+    // centre (which the solver is not told), then five held boards.
+    let centre = BOARD.corner(BOARD.cols - 1, BOARD.rows - 1) * 0.5;
+    let seat = DMat4::from_translation(centre)
+        * DMat4::from_rotation_y(-35f64.to_radians())
+        * DMat4::from_translation(-centre);
+    let mut m = manifest(2, 7);
+    let mut truth = Vec::new();
+    for p in 0..2 {
+        let reference = held[6 * p];
+        m.positions[p].shots[1].placement = BoardPlacement::Seat("seat-2".into());
+        truth.push(reference);
+        truth.push(Pose::from_matrix(&(reference.matrix() * seat)));
+        truth.extend_from_slice(&held[6 * p + 1..6 * p + 6]);
+    }
+    let cal = solve_camera(
+        Path::new("b"),
+        &m,
+        corners(&camera, &truth, 0.1),
+        (640, 480),
+        &Acceptance::default(),
+    )
+    .unwrap();
+    assert!(cal.report.accepted, "{:?}", cal.report.problems);
+    for (p, (_, camera_to_world)) in cal.camera_to_world.iter().enumerate() {
+        let (d, angle) = pose_difference(camera_to_world, &truth[7 * p].matrix().inverse());
+        assert!(d < 5e-4 && angle < 0.05, "position {p}: {d} m, {angle} deg");
+    }
+    // The seat's shots: where the board really was, though nobody said.
+    for k in [1, 8] {
+        let (d, angle) = pose_difference(&cal.poses[k].matrix(), &truth[k].matrix());
+        assert!(d < 5e-4 && angle < 0.05, "shot {k}: {d} m, {angle} deg");
+        assert_eq!(cal.report.shots[k].seat.as_deref(), Some("seat-2"));
+    }
 }
 
 #[test]
@@ -362,8 +407,13 @@ fn the_simulated_rigs_gray_codes_calibrate_its_projector() {
     assert!(projector.report.shots.iter().all(|s| s.corners == 35));
     // Every shot's folder holds 2 x (10 + 10) codes; a projector that never
     // switched leaves each code equal to its inverse.
-    let folder = m.positions[0].shots[4].graycode.clone().unwrap();
-    let still = bundle.join(&m.positions[0].shots[4].file);
+    let coded = m.positions[0]
+        .shots
+        .iter()
+        .find(|s| s.graycode.is_some())
+        .unwrap();
+    let folder = coded.graycode.clone().unwrap();
+    let still = bundle.join(&coded.file);
     for bit in 0..10 {
         for inverted in [false, true] {
             let code = bundle

@@ -22,7 +22,10 @@
 //!   file = "p0/board-00.exr"    # linear RGB, as scan photos
 //!   reference = true            # the board at its reference placement
 //!   [[position.shot]]
-//!   file = "p0/board-01.exr"    # the board anywhere else in view
+//!   file = "p0/board-01.exr"
+//!   seat = "turned"             # the board resting on a further seat
+//!   [[position.shot]]
+//!   file = "p0/board-02.exr"    # the board anywhere else in view
 //! ```
 //!
 //! A shot may also carry the projector's Gray codes on the same board
@@ -41,10 +44,16 @@
 //! The projector is taken to be fixed to the camera (one scan head), so
 //! Gray-code shots at any position calibrate it for every position.
 //!
-//! Every position needs one reference shot: the board resting at the same
-//! place for every position, which ties the camera's pose at each position
-//! to the world frame. The other shots only constrain the intrinsics, so
-//! the board may be held anywhere for them.
+//! Every position needs a reference shot: the board resting at the same
+//! place for every position (more than one photo of it averages the
+//! camera's noise), which ties the camera's pose at each position
+//! to the world frame. A shot with `seat = "NAME"` shows the board resting
+//! on a further seat of the mount, the same for every position that names
+//! it; where that seat holds the board need not be known (the calibration
+//! finds it), only that it holds it the same way each time. Together with
+//! the reference it is a target with depth, which fixes each position's
+//! camera better than the reference alone. The other shots only constrain
+//! the intrinsics, so the board may be held anywhere for them.
 //!
 //! Boundaries: the format only; detection and solving are the rig
 //! calibration crate's.
@@ -89,13 +98,26 @@ impl Chessboard {
     }
 }
 
+/// The name a capture gives the mount's further seat.
+pub const SEAT: &str = "seat-2";
+
+/// Where a shot's board was.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum BoardPlacement {
+    /// Held anywhere in view: the shot constrains the intrinsics only.
+    Held,
+    /// Resting at the reference placement, which defines the world.
+    Reference,
+    /// Resting on the named further seat of the mount.
+    Seat(String),
+}
+
 /// One photo of the board.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Shot {
     /// Relative to the bundle folder.
     pub file: PathBuf,
-    /// The board at its reference placement.
-    pub reference: bool,
+    pub placement: BoardPlacement,
     /// Folder of the projector's Gray-code photos of this board pose.
     pub graycode: Option<PathBuf>,
 }
@@ -193,6 +215,8 @@ struct RawShot {
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     reference: bool,
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    seat: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     graycode: Option<PathBuf>,
 }
 
@@ -251,18 +275,27 @@ impl CalibManifest {
                     "expected a unique, non-empty name",
                 ));
             }
-            let references = p.shots.iter().filter(|s| s.reference).count();
-            if references != 1 {
+            if !p.shots.iter().any(|s| s.reference) {
                 return Err(invalid(
                     &format!("position[{k}].shot"),
                     &format!(
-                        "expected exactly one shot with `reference = true` at position \
-                         {} (found {references}): the board at its reference placement",
+                        "expected a shot with `reference = true` at position {}: the board \
+                         at its reference placement",
                         p.name
                     ),
                 ));
             }
             for (s, shot) in p.shots.iter().enumerate() {
+                match &shot.seat {
+                    Some(seat) if seat.is_empty() || shot.reference => {
+                        return Err(invalid(
+                            &format!("position[{k}].shot[{s}].seat"),
+                            "expected a non-empty seat name on a shot without \
+                             `reference = true` (a board rests in one place at a time)",
+                        ));
+                    }
+                    _ => {}
+                }
                 let inside = inside_bundle;
                 if !inside(&shot.file) {
                     return Err(invalid(
@@ -292,7 +325,11 @@ impl CalibManifest {
                     .into_iter()
                     .map(|s| Shot {
                         file: s.file,
-                        reference: s.reference,
+                        placement: match (s.reference, s.seat) {
+                            (true, _) => BoardPlacement::Reference,
+                            (false, Some(seat)) => BoardPlacement::Seat(seat),
+                            (false, None) => BoardPlacement::Held,
+                        },
                         graycode: s.graycode,
                     })
                     .collect(),
@@ -339,7 +376,11 @@ impl CalibManifest {
                         .iter()
                         .map(|s| RawShot {
                             file: s.file.clone(),
-                            reference: s.reference,
+                            reference: s.placement == BoardPlacement::Reference,
+                            seat: match &s.placement {
+                                BoardPlacement::Seat(seat) => Some(seat.clone()),
+                                _ => None,
+                            },
                             graycode: s.graycode.clone(),
                         })
                         .collect(),
@@ -426,6 +467,9 @@ name = "p0"
   reference = true
   [[position.shot]]
   file = "p0/board-01.exr"
+  [[position.shot]]
+  file = "p0/board-02.exr"
+  seat = "turned"
 "#;
 
     #[test]
@@ -433,7 +477,16 @@ name = "p0"
         let m = CalibManifest::parse(GOOD, Path::new("calib.toml")).unwrap();
         assert_eq!(m.board.cols, 9);
         assert_eq!(m.board.corner(2, 1), DVec3::new(0.1, 0.05, 0.0));
-        assert_eq!(m.positions[0].shots.len(), 2);
+        let placements: Vec<&BoardPlacement> =
+            m.positions[0].shots.iter().map(|s| &s.placement).collect();
+        assert_eq!(
+            placements,
+            [
+                &BoardPlacement::Reference,
+                &BoardPlacement::Held,
+                &BoardPlacement::Seat("turned".into())
+            ]
+        );
         let again = CalibManifest::parse(&m.to_toml(), Path::new("calib.toml")).unwrap();
         assert_eq!(again, m);
     }
@@ -485,6 +538,15 @@ name = "p0"
     fn a_square_board_is_refused_as_ambiguous() {
         let e = error_of(&GOOD.replace("[9, 6]", "[6, 6]"));
         assert!(e.contains("board.inner_corners"), "{e}");
+    }
+
+    #[test]
+    fn a_seat_on_the_reference_shot_or_without_a_name_is_refused() {
+        let both = GOOD.replace("reference = true", "reference = true\n  seat = \"turned\"");
+        let e = error_of(&both);
+        assert!(e.contains("position[0].shot[0].seat"), "{e}");
+        let e = error_of(&GOOD.replace("seat = \"turned\"", "seat = \"\""));
+        assert!(e.contains("position[0].shot[2].seat"), "{e}");
     }
 
     #[test]

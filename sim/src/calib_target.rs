@@ -22,7 +22,8 @@ use crate::scene::{
 use glam::{DMat3, DMat4, DQuat, DVec3, Vec2, Vec3};
 use matscan_scan::atomic::{write_atomic, PendingDir};
 use matscan_scan::calib_bundle::{
-    graycode_file, CalibManifest, CalibPosition, Chessboard, ProjectorSize, Shot, CALIB_MANIFEST,
+    graycode_file, BoardPlacement, CalibManifest, CalibPosition, Chessboard, ProjectorSize, Shot,
+    CALIB_MANIFEST, SEAT,
 };
 use matscan_scan::image_io::write_rgb_exr;
 use matscan_scan::raster::Raster;
@@ -55,6 +56,9 @@ pub struct BoardBundleOptions {
     pub positions: usize,
     /// Shots per position, the reference shot included (at least 1).
     pub shots_per_position: usize,
+    /// One more shot per position with the board on the mount's further
+    /// seat ([`seat_placement`]).
+    pub seat: bool,
     /// Further shots at the first position with the projector's Gray
     /// codes on the board (0 for none).
     pub projector_shots: usize,
@@ -75,6 +79,7 @@ impl Default for BoardBundleOptions {
             height: 1024,
             positions: 3,
             shots_per_position: 8,
+            seat: true,
             projector_shots: 12,
             inner_corners: INNER_CORNERS,
             distortion: [-0.08, 0.05, 0.0005, -0.0003, 0.0],
@@ -230,6 +235,41 @@ pub fn reference_placement(board: &Chessboard, rig: &Rig) -> DMat4 {
     DMat4::from_rotation_translation(DQuat::from_mat3(&rotation), -(rotation * centre))
 }
 
+/// The mount's further seat: the reference placement turned about the
+/// world's vertical (+Y) through the origin, by the angle (30 to 90
+/// degrees either way) that keeps every position's camera seeing the
+/// printed side nearest [`REFERENCE_VIEW_DEG`]. Seen together with the
+/// reference, the two boards are a target with depth; the calibration
+/// finds the turn itself, so a real mount's seat need only repeat.
+pub fn seat_placement(board: &Chessboard, rig: &Rig) -> DMat4 {
+    let reference = reference_placement(board, rig);
+    let target = REFERENCE_VIEW_DEG.to_radians();
+    let centre = board.corner(board.cols - 1, board.rows - 1) * 0.5;
+    let miss = |m: &DMat4| {
+        // The board's z axis points into the print: the camera sees the
+        // printed side where it points away from the camera.
+        let normal = m.transform_vector3(DVec3::Z).normalize_or_zero();
+        rig.positions
+            .iter()
+            .map(|p| {
+                let to_camera = (p.camera_to_world.w_axis.truncate() - m.transform_point3(centre))
+                    .normalize_or_zero();
+                let facing = -normal.dot(to_camera);
+                if facing <= 0.0 {
+                    f64::INFINITY
+                } else {
+                    (facing.clamp(0.0, 1.0).acos() - target).abs()
+                }
+            })
+            .fold(0.0, f64::max)
+    };
+    (6..=18)
+        .flat_map(|k| [-1.0, 1.0].map(|side| side * f64::from(k) * 5.0))
+        .map(|deg: f64| DMat4::from_rotation_y(deg.to_radians()) * reference)
+        .min_by(|a, b| miss(a).total_cmp(&miss(b)))
+        .unwrap_or(reference)
+}
+
 /// How a person holds the board: tilted within `tilt_deg` about an axis
 /// in its plane, at `distance` times the working distance.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -374,6 +414,16 @@ impl BoardHolder {
         board_scene(&self.board, self.reference_to_world(), &self.rig)
     }
 
+    /// The scene with the board on the mount's further seat
+    /// ([`seat_placement`]).
+    pub fn on_seat(&self) -> Scene {
+        board_scene(
+            &self.board,
+            seat_placement(&self.board, &self.rig),
+            &self.rig,
+        )
+    }
+
     /// The rig the board is held before.
     pub fn rig(&self) -> &Rig {
         &self.rig
@@ -456,20 +506,26 @@ pub fn write_board_bundle(
             source: e,
         })?;
         let mut shots = Vec::new();
-        for s in 0..opts.shots_per_position {
-            let placement = if s == 0 {
-                reference
-            } else {
-                hand_held_pose(&mut rng, &board, &rig, position.camera_to_world, None).ok_or_else(
-                    || {
-                        SimError::Options(format!(
-                            "no board pose fits the view at position {}",
-                            position.name
-                        ))
-                    },
-                )?
-            };
-            let scene = board_scene(&board, placement, &rig);
+        let resting =
+            std::iter::once((BoardPlacement::Reference, reference)).chain(opts.seat.then(|| {
+                (
+                    BoardPlacement::Seat(SEAT.into()),
+                    seat_placement(&board, &rig),
+                )
+            }));
+        let mut placed: Vec<(BoardPlacement, DMat4)> = resting.collect();
+        for _ in 1..opts.shots_per_position {
+            let pose = hand_held_pose(&mut rng, &board, &rig, position.camera_to_world, None)
+                .ok_or_else(|| {
+                    SimError::Options(format!(
+                        "no board pose fits the view at position {}",
+                        position.name
+                    ))
+                })?;
+            placed.push((BoardPlacement::Held, pose));
+        }
+        for (s, (placement, board_to_world)) in placed.into_iter().enumerate() {
+            let scene = board_scene(&board, board_to_world, &rig);
             let renderer = Renderer::with_environment(&scene, env.clone());
             let photo = renderer
                 .render_position(p, &capture, &ropts)?
@@ -479,7 +535,7 @@ pub fn write_board_bundle(
             write_rgb_exr(&pending.path().join(&file), &photo, Precision::Half)?;
             shots.push(Shot {
                 file,
-                reference: s == 0,
+                placement,
                 graycode: None,
             });
         }
@@ -585,7 +641,7 @@ fn projector_shot(
     }
     Ok(Shot {
         file: lit,
-        reference: false,
+        placement: BoardPlacement::Held,
         graycode: Some(folder),
     })
 }

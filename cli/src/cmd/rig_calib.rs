@@ -64,6 +64,10 @@ pub struct BoardArgs {
     /// Gray-code shots for the projector, at the first position.
     #[arg(long, default_value_t = 12)]
     pub projector_shots: usize,
+    /// Leave out the photo per position of the board on the mount's second
+    /// seat.
+    #[arg(long)]
+    pub no_seat: bool,
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Paths per pixel.
@@ -179,6 +183,7 @@ pub fn run_board(a: BoardArgs) -> Result<()> {
         positions: a.positions,
         shots_per_position: a.shots,
         projector_shots: a.projector_shots,
+        seat: !a.no_seat,
         seed: a.seed,
         samples: a.samples,
         ..BoardBundleOptions::default()
@@ -187,9 +192,10 @@ pub fn run_board(a: BoardArgs) -> Result<()> {
     let manifest = write_board_bundle(&opts, &a.out)
         .with_context(|| format!("rendering a board bundle into {}", a.out.display()))?;
     println!(
-        "{} positions x {} shots of a {}x{} board ({} m squares) in {} ({:.1} s); the true rig is {}",
+        "{} positions x {} shots{} of a {}x{} board ({} m squares) in {} ({:.1} s); the true rig is {}",
         manifest.positions.len(),
         a.shots,
+        if a.no_seat { "" } else { " and the second seat" },
         manifest.board.cols,
         manifest.board.rows,
         manifest.board.square,

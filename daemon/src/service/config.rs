@@ -74,6 +74,9 @@ pub struct CalibrationSettings {
     pub shots: usize,
     /// Gray-code poses for the projector (0 on a rig without one).
     pub projector_shots: usize,
+    /// Whether the board's mount has a second seat to photograph the board
+    /// on at every position (`seat`).
+    pub seat: bool,
     /// Positions to photograph when the rig has no calibration file yet.
     pub positions: usize,
     /// The light-calibration sphere's radius, metres (`sphere_radius`);
@@ -97,6 +100,7 @@ impl Default for CalibrationSettings {
             target: None,
             shots: 8,
             projector_shots: 12,
+            seat: true,
             positions: 1,
             sphere_radius: None,
             sphere_placements: 6,
@@ -424,6 +428,7 @@ struct RawCalibration {
     reference_to_world: Option<[f64; 16]>,
     shots: Option<usize>,
     projector_shots: Option<usize>,
+    seat: Option<bool>,
     positions: Option<usize>,
     sphere_radius: Option<f64>,
     sphere_placements: Option<usize>,
@@ -722,7 +727,8 @@ fn calibration(
     };
     let shots = raw.shots.unwrap_or(defaults.shots);
     let projector_shots = raw.projector_shots.unwrap_or(defaults.projector_shots);
-    BoardPlan::new(shots, projector_shots).map_err(|e| invalid("calibration.shots", e))?;
+    let seat = raw.seat.unwrap_or(defaults.seat);
+    BoardPlan::new(shots, projector_shots, seat).map_err(|e| invalid("calibration.shots", e))?;
     let positions = raw.positions.unwrap_or(defaults.positions);
     if positions == 0 {
         return Err(invalid(
@@ -761,6 +767,7 @@ fn calibration(
         target,
         shots,
         projector_shots,
+        seat,
         positions,
         sphere_radius: raw.sphere_radius,
         sphere_placements,

@@ -4,8 +4,10 @@
 //! `matscan-calib/1` bundle.
 //!
 //! Per position (the turntable turns, or the operator moves the camera and
-//! presses): the board at its reference placement, then hand-held at
-//! further poses, each photo under both flashes. At the first position the
+//! presses): the board at its reference placement, on the mount's further
+//! seat where the plan asks (the same seat at every position: with the
+//! reference it is a target with depth), then hand-held at further poses,
+//! each photo under both flashes. At the first position the
 //! board is then held where the projector lights it whole, and each such
 //! pose is photographed under the flashes and under every Gray-code image
 //! of the projector's columns and rows (each bit and its inverse). Before
@@ -28,7 +30,8 @@ use super::{CaptureError, Progress, RigDevices, RunSettings};
 use matscan_drivers::{monotonic_now, GrayCode, Level, LightId, ProjectorPattern, TargetPlacement};
 use matscan_scan::atomic::{write_atomic, PendingDir};
 use matscan_scan::calib_bundle::{
-    graycode_file, CalibManifest, CalibPosition, Chessboard, ProjectorSize, Shot, CALIB_MANIFEST,
+    graycode_file, BoardPlacement, CalibManifest, CalibPosition, Chessboard, ProjectorSize, Shot,
+    CALIB_MANIFEST, SEAT,
 };
 use matscan_scan::image_io::write_rgb_exr;
 use matscan_scan::lights_bundle::{
@@ -57,6 +60,9 @@ pub struct BoardPlan {
     /// Further poses at the first position with the projector's Gray codes
     /// (0: the projector is not calibrated).
     pub projector_shots: usize,
+    /// One more photo per position with the board on the mount's further
+    /// seat ([`SEAT`]).
+    pub seat: bool,
 }
 
 impl BoardPlan {
@@ -65,12 +71,13 @@ impl BoardPlan {
 
     /// The plan, unless there is not even the reference shot or a count
     /// exceeds [`BoardPlan::MAX_SHOTS`] (the error says what is expected).
-    pub fn new(shots: usize, projector_shots: usize) -> Result<BoardPlan, String> {
+    pub fn new(shots: usize, projector_shots: usize, seat: bool) -> Result<BoardPlan, String> {
         let max = Self::MAX_SHOTS;
         ((1..=max).contains(&shots) && projector_shots <= max)
             .then_some(BoardPlan {
                 shots,
                 projector_shots,
+                seat,
             })
             .ok_or_else(|| {
                 format!(
@@ -158,6 +165,7 @@ impl CalibrationPlan {
         match self {
             CalibrationPlan::Board(b) => serde_json::json!({
                 "target": "board", "shots": b.shots, "projector_shots": b.projector_shots,
+                "seat": b.seat,
             }),
             CalibrationPlan::Sphere(s) => serde_json::json!({
                 "target": "sphere", "placements": s.placements,
@@ -235,7 +243,8 @@ impl RigDevices {
         if count > 1 && self.positioner.is_none() && self.trigger.is_none() {
             return Err(CaptureError::CannotMove { positions: count });
         }
-        let total = count * plan.shots + plan.projector_shots * (1 + codes.len());
+        let per_position = plan.shots + usize::from(plan.seat);
+        let total = count * per_position + plan.projector_shots * (1 + codes.len());
         let pending = PendingDir::create(target)?;
         self.start_dark()?;
         let mut done = 0;
@@ -252,27 +261,38 @@ impl RigDevices {
             let folder = PathBuf::from(&geometry.name);
             create_dir(&pending.path().join(&folder))?;
             let mut shots = Vec::new();
-            for s in 0..plan.shots {
-                let (placement, task) = if s == 0 {
-                    (
-                        TargetPlacement::Reference,
-                        format!(
-                            "put the board at its reference placement, seen from {}",
-                            geometry.name
-                        ),
-                    )
-                } else {
-                    (
-                        TargetPlacement::HandHeld,
-                        format!(
-                            "hold the board at a new pose before the camera at {} (pose {} of {}), whole in view and tilted",
-                            geometry.name,
-                            s + 1,
-                            plan.shots
-                        ),
-                    )
-                };
-                self.present(index, placement, &task, settings, stop, prompt)?;
+            let resting = std::iter::once((
+                BoardPlacement::Reference,
+                TargetPlacement::Reference,
+                format!(
+                    "put the board at its reference placement, seen from {}",
+                    geometry.name
+                ),
+            ))
+            .chain(plan.seat.then(|| {
+                (
+                    BoardPlacement::Seat(SEAT.into()),
+                    TargetPlacement::Seat,
+                    format!(
+                        "put the board on the mount's second seat, seen from {}",
+                        geometry.name
+                    ),
+                )
+            }));
+            let held = (1..plan.shots).map(|s| {
+                (
+                    BoardPlacement::Held,
+                    TargetPlacement::HandHeld,
+                    format!(
+                        "hold the board at a new pose before the camera at {} (pose {} of {}), whole in view and tilted",
+                        geometry.name,
+                        s + 1,
+                        plan.shots
+                    ),
+                )
+            });
+            for (s, (placement, place, task)) in resting.chain(held).enumerate() {
+                self.present(index, place, &task, settings, stop, prompt)?;
                 let file = folder.join(format!("board-{s:02}.exr"));
                 self.photograph_board(pending.path(), &file, stop)?;
                 done += 1;
@@ -283,7 +303,7 @@ impl RigDevices {
                 });
                 shots.push(Shot {
                     file,
-                    reference: s == 0,
+                    placement,
                     graycode: None,
                 });
             }
@@ -328,7 +348,7 @@ impl RigDevices {
                     }
                     shots.push(Shot {
                         file,
-                        reference: false,
+                        placement: BoardPlacement::Held,
                         graycode: Some(shot),
                     });
                 }
@@ -357,7 +377,7 @@ impl RigDevices {
         Ok(CalibrationOutcome {
             bundle,
             positions: count,
-            shots: count * plan.shots + plan.projector_shots,
+            shots: count * per_position + plan.projector_shots,
             graycode_shots: plan.projector_shots,
             photos: total,
             seconds: start.elapsed().as_secs_f64(),

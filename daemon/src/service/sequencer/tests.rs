@@ -320,13 +320,13 @@ fn board_target() -> CalibrationTarget {
 
 #[test]
 fn a_calibration_prompts_the_operator_for_each_board_pose_and_publishes_the_bundle() {
-    use matscan_scan::calib_bundle::CalibManifest;
+    use matscan_scan::calib_bundle::{BoardPlacement, CalibManifest, SEAT};
     let dir = tempfile::tempdir().unwrap();
     let (mut rig, _turntable, button) = hand_turned_rig();
     rig.calibration_target = Some(board_target());
     let target = dir.path().join("calib-0001");
     let mut prompts = Vec::new();
-    let plan = CalibrationPlan::Board(BoardPlan::new(3, 1).unwrap());
+    let plan = CalibrationPlan::Board(BoardPlan::new(3, 1, true).unwrap());
     let out = with_ready_operator(button, || {
         rig.capture_calibration(
             plan,
@@ -338,23 +338,34 @@ fn a_calibration_prompts_the_operator_for_each_board_pose_and_publishes_the_bund
         )
     })
     .unwrap();
-    // 2 positions x 3 poses, then one Gray-code pose at p0: the flash photo
-    // and 2 x (10 + 10) stripe images of the 1024 x 768 projector.
-    assert_eq!((out.positions, out.shots, out.graycode_shots), (2, 7, 1));
-    assert_eq!(out.photos, 6 + 41);
+    // 2 positions x (3 poses and the second seat), then one Gray-code pose
+    // at p0: the flash photo and 2 x (10 + 10) stripe images of the
+    // 1024 x 768 projector.
+    assert_eq!((out.positions, out.shots, out.graycode_shots), (2, 9, 1));
+    assert_eq!(out.photos, 8 + 41);
     // A prompt per pose, and one to move on to p1 (no turntable).
-    assert_eq!(prompts.len(), 8, "{prompts:?}");
+    assert_eq!(prompts.len(), 10, "{prompts:?}");
     assert!(prompts[0].contains("reference placement"), "{prompts:?}");
-    assert!(prompts[1].contains("pose 2 of 3"), "{prompts:?}");
-    assert!(prompts[3].contains("projector"), "{prompts:?}");
-    assert_eq!(prompts[4], "move the object to p1");
+    assert!(prompts[1].contains("second seat"), "{prompts:?}");
+    assert!(prompts[2].contains("pose 2 of 3"), "{prompts:?}");
+    assert!(prompts[4].contains("projector"), "{prompts:?}");
+    assert_eq!(prompts[5], "move the object to p1");
     let manifest = CalibManifest::read(&target).unwrap();
     assert_eq!(manifest.board, board_target().board);
     assert_eq!(manifest.positions.len(), 2);
     let p0 = &manifest.positions[0];
-    assert_eq!(p0.shots.len(), 4);
-    assert!(p0.shots[0].reference && !p0.shots[1].reference);
-    let folder = target.join(p0.shots[3].graycode.as_ref().unwrap());
+    let placements: Vec<&BoardPlacement> = p0.shots.iter().map(|s| &s.placement).collect();
+    assert_eq!(
+        placements,
+        [
+            &BoardPlacement::Reference,
+            &BoardPlacement::Seat(SEAT.into()),
+            &BoardPlacement::Held,
+            &BoardPlacement::Held,
+            &BoardPlacement::Held
+        ]
+    );
+    let folder = target.join(p0.shots[4].graycode.as_ref().unwrap());
     assert_eq!(std::fs::read_dir(&folder).unwrap().count(), 41);
     assert!(folder.join("columns-09-inv.exr").is_file());
     assert_eq!(
@@ -380,7 +391,7 @@ fn a_calibration_without_a_board_or_a_projector_says_what_is_missing_and_writes_
     };
     let err = run(
         &mut rig,
-        CalibrationPlan::Board(BoardPlan::new(3, 0).unwrap()),
+        CalibrationPlan::Board(BoardPlan::new(3, 0, true).unwrap()),
     )
     .unwrap_err();
     assert!(matches!(err, CaptureError::NoCalibrationTarget), "{err}");
@@ -389,7 +400,7 @@ fn a_calibration_without_a_board_or_a_projector_says_what_is_missing_and_writes_
     rig.projector = None;
     let err = run(
         &mut rig,
-        CalibrationPlan::Board(BoardPlan::new(3, 2).unwrap()),
+        CalibrationPlan::Board(BoardPlan::new(3, 2, true).unwrap()),
     )
     .unwrap_err();
     assert!(err.to_string().contains("no projector"), "{err}");
