@@ -90,6 +90,20 @@ pub struct CameraReport {
     /// Shots to take again.
     pub retake: Vec<PathBuf>,
     pub shots: Vec<ShotReport>,
+    /// Where each further seat of the mount holds the board.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub seats: Vec<SeatReport>,
+}
+
+/// Where a seat of the mount holds the board, as the calibration found it.
+#[derive(Debug, Clone, Serialize)]
+pub struct SeatReport {
+    pub name: String,
+    /// The seat's board frame to the reference placement's board frame,
+    /// row-major.
+    pub to_reference: [f64; 16],
+    /// The angle between the seat's board and the reference's, degrees.
+    pub turn_deg: f64,
 }
 
 /// The camera and its pose at every position.
@@ -334,6 +348,14 @@ pub fn solve_camera(
             )
         })
         .collect();
+    let seats: Vec<SeatReport> = seats
+        .iter()
+        .map(|&(name, i)| SeatReport {
+            name: name.to_string(),
+            to_reference: matscan_scan::camera::mat4_to_row_major(&refined.poses[i].matrix()),
+            turn_deg: refined.poses[i].rotation.length().to_degrees(),
+        })
+        .collect();
     // Each shot's own board-to-camera pose, for the report and the projector.
     refined.poses = fit_points
         .iter()
@@ -352,7 +374,15 @@ pub fn solve_camera(
         refined,
         camera_to_world,
         acceptance,
-    ))
+    )
+    .with_seats(seats))
+}
+
+impl CameraCalibration {
+    fn with_seats(mut self, seats: Vec<SeatReport>) -> CameraCalibration {
+        self.report.seats = seats;
+        self
+    }
 }
 
 fn judge(
@@ -450,6 +480,7 @@ fn judge(
             problems,
             retake,
             shots: reports,
+            seats: Vec::new(),
         },
         corners: detections.into_iter().zip(reprojected).collect(),
         poses: refined.poses,

@@ -189,6 +189,9 @@ fn a_board_on_a_second_seat_is_placed_and_joins_each_positions_camera() {
         assert!(d < 5e-4 && angle < 0.05, "shot {k}: {d} m, {angle} deg");
         assert_eq!(cal.report.shots[k].seat.as_deref(), Some("seat-2"));
     }
+    let seat = &cal.report.seats[0];
+    assert_eq!(seat.name, "seat-2");
+    assert!((seat.turn_deg - 35.0).abs() < 0.05, "{}", seat.turn_deg);
 }
 
 #[test]

@@ -129,7 +129,17 @@ pub fn run_rig(a: RigArgs) -> Result<()> {
             s.rms_px,
             s.max_px,
             s.tilt_deg,
-            if s.reference { ", reference" } else { "" }
+            match (&s.seat, s.reference) {
+                (Some(seat), _) => format!(", on {seat}"),
+                (None, true) => ", reference".to_string(),
+                (None, false) => String::new(),
+            }
+        );
+    }
+    for seat in &r.seats {
+        println!(
+            "  {} holds the board turned {:.1} deg from the reference",
+            seat.name, seat.turn_deg
         );
     }
     if let Some(p) = &projector {
