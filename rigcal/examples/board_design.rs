@@ -25,8 +25,9 @@ use matscan_rigcal::compare::pose_difference;
 use matscan_rigcal::detect::Corner;
 use matscan_rigcal::model::{project, Pose};
 use matscan_scan::calib_bundle::{BoardPlacement, CalibManifest, CalibPosition, Shot, SEAT};
-use matscan_sim::calib_target::{board_for, held_pose, seat_placement, Hold};
-use matscan_sim::scene::{random_rig, RigOptions};
+use matscan_sim::calib_target::{
+    board_for, board_rig, held_pose, seat_placement, BoardBundleOptions, Hold,
+};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use std::path::{Path, PathBuf};
@@ -58,97 +59,110 @@ struct Errors {
 }
 
 const DESIGNS: [Design; 9] = [
-    Design {
-        name: "lean 25 deg about x, 9x6",
-        shots: 8,
-        tilt_deg: (10.0, 40.0),
-        distance: (0.8, 1.1),
-        lean_deg: Some(25.0),
-        corners: (9, 6),
-        photos_per_seat: 1,
-        seat: false,
-    },
-    Design {
-        name: "every camera near 45 deg, 9x6",
-        shots: 8,
-        tilt_deg: (10.0, 40.0),
-        distance: (0.8, 1.1),
-        lean_deg: None,
-        corners: (9, 6),
-        photos_per_seat: 1,
-        seat: false,
-    },
-    Design {
-        name: "lean 25 deg about x, 13x9",
-        shots: 8,
-        tilt_deg: (10.0, 40.0),
-        distance: (0.8, 1.1),
-        lean_deg: Some(25.0),
-        corners: (13, 9),
-        photos_per_seat: 1,
-        seat: false,
-    },
-    Design {
-        name: "every camera near 45 deg, 13x9",
-        shots: 8,
-        tilt_deg: (10.0, 40.0),
-        distance: (0.8, 1.1),
-        lean_deg: None,
-        corners: (13, 9),
-        photos_per_seat: 1,
-        seat: false,
-    },
-    Design {
-        name: "every camera near 45 deg, 13x9, 12 shots",
-        shots: 12,
-        tilt_deg: (10.0, 40.0),
-        distance: (0.8, 1.1),
-        lean_deg: None,
-        corners: (13, 9),
-        photos_per_seat: 1,
-        seat: false,
-    },
-    Design {
-        name: "every camera near 45 deg, 13x9, 16 shots tilted 20 to 50 deg",
-        shots: 16,
-        tilt_deg: (20.0, 50.0),
-        distance: (0.8, 1.1),
-        lean_deg: None,
-        corners: (13, 9),
-        photos_per_seat: 1,
-        seat: false,
-    },
-    Design {
-        name: "every camera near 45 deg, 13x9, reference photographed 4 times",
-        shots: 8,
-        tilt_deg: (10.0, 40.0),
-        distance: (0.8, 1.1),
-        lean_deg: None,
-        corners: (13, 9),
-        photos_per_seat: 4,
-        seat: false,
-    },
-    Design {
-        name: "every camera near 45 deg, 13x9, second seat",
-        shots: 8,
-        tilt_deg: (10.0, 40.0),
-        distance: (0.8, 1.1),
-        lean_deg: None,
-        corners: (13, 9),
-        photos_per_seat: 1,
-        seat: true,
-    },
-    Design {
-        name: "every camera near 45 deg, 13x9, second seat, each seat photographed 4 times",
-        shots: 8,
-        tilt_deg: (10.0, 40.0),
-        distance: (0.8, 1.1),
-        lean_deg: None,
-        corners: (13, 9),
-        photos_per_seat: 4,
-        seat: true,
-    },
+    design(
+        "lean 25 deg about x, 9x6",
+        8,
+        (10.0, 40.0),
+        Some(25.0),
+        (9, 6),
+        1,
+        false,
+    ),
+    design(
+        "every camera near 45 deg, 9x6",
+        8,
+        (10.0, 40.0),
+        None,
+        (9, 6),
+        1,
+        false,
+    ),
+    design(
+        "lean 25 deg about x, 13x9",
+        8,
+        (10.0, 40.0),
+        Some(25.0),
+        (13, 9),
+        1,
+        false,
+    ),
+    design(
+        "every camera near 45 deg, 13x9",
+        8,
+        (10.0, 40.0),
+        None,
+        (13, 9),
+        1,
+        false,
+    ),
+    design(
+        "every camera near 45 deg, 13x9, 12 shots",
+        12,
+        (10.0, 40.0),
+        None,
+        (13, 9),
+        1,
+        false,
+    ),
+    design(
+        "every camera near 45 deg, 13x9, 16 shots tilted 20 to 50 deg",
+        16,
+        (20.0, 50.0),
+        None,
+        (13, 9),
+        1,
+        false,
+    ),
+    design(
+        "every camera near 45 deg, 13x9, reference photographed 4 times",
+        8,
+        (10.0, 40.0),
+        None,
+        (13, 9),
+        4,
+        false,
+    ),
+    design(
+        "every camera near 45 deg, 13x9, second seat",
+        8,
+        (10.0, 40.0),
+        None,
+        (13, 9),
+        1,
+        true,
+    ),
+    design(
+        "every camera near 45 deg, 13x9, second seat, each seat photographed 4 times",
+        8,
+        (10.0, 40.0),
+        None,
+        (13, 9),
+        4,
+        true,
+    ),
 ];
+
+/// A design held at 0.8 to 1.1 times the working distance.
+const fn design(
+    name: &'static str,
+    shots: usize,
+    tilt_deg: (f64, f64),
+    lean_deg: Option<f64>,
+    corners: (u32, u32),
+    photos_per_seat: usize,
+    seat: bool,
+) -> Design {
+    Design {
+        name,
+        shots,
+        tilt_deg,
+        distance: (0.8, 1.1),
+        lean_deg,
+        corners,
+        photos_per_seat,
+        seat,
+    }
+}
 
 fn gauss(rng: &mut Pcg64) -> f64 {
     let u: f64 = rng.gen_range(1e-12..1.0);
@@ -159,16 +173,10 @@ fn gauss(rng: &mut Pcg64) -> f64 {
 /// One draw of `design` on the rig of `seed`; `None` when the solver
 /// refuses it.
 fn trial(seed: u64, draw: u64, design: &Design) -> Option<Errors> {
-    let mut rng = Pcg64::seed_from_u64(seed);
-    let mut rig = random_rig(
-        &mut rng,
-        RigOptions {
-            width: 1024,
-            height: 1024,
-            positions: 3,
-        },
-    );
-    rig.intrinsics.distortion = [-0.08, 0.05, 0.0005, -0.0003, 0.0];
+    let (rig, _) = board_rig(&BoardBundleOptions {
+        seed,
+        ..BoardBundleOptions::default()
+    });
     let board = board_for(&rig, design.corners);
     let reference = match design.lean_deg {
         None => matscan_sim::calib_target::reference_placement(&board, &rig),

@@ -10,22 +10,14 @@
 //! cargo run --release -p matscan-rigcal --example render_noise
 //! ```
 use matscan_rigcal::detect::find_board;
-use matscan_sim::calib_target::{board_for, board_scene, reference_placement, INNER_CORNERS};
+use matscan_sim::calib_target::{
+    board_for, board_rig, board_scene, reference_placement, BoardBundleOptions, INNER_CORNERS,
+};
 use matscan_sim::render::{CaptureSpec, RenderOptions, Renderer};
-use matscan_sim::scene::{random_rig, RigOptions};
-use rand::SeedableRng;
 use std::path::Path;
+
 fn main() {
-    let mut rng = rand_pcg::Pcg64::seed_from_u64(1);
-    let mut rig = random_rig(
-        &mut rng,
-        RigOptions {
-            width: 1024,
-            height: 1024,
-            positions: 3,
-        },
-    );
-    rig.intrinsics.distortion = [-0.08, 0.05, 0.0005, -0.0003, 0.0];
+    let (rig, _) = board_rig(&BoardBundleOptions::default());
     let board = board_for(&rig, INNER_CORNERS);
     let scene = board_scene(&board, reference_placement(&board, &rig), &rig);
     let renderer = Renderer::new(&scene).unwrap();

@@ -467,6 +467,23 @@ impl BoardHolder {
     }
 }
 
+/// The random rig `write_board_bundle` photographs for `opts` (its seed,
+/// size, positions and lens distortion), with the generator that goes on
+/// to draw the hand-held poses.
+pub fn board_rig(opts: &BoardBundleOptions) -> (Rig, Pcg64) {
+    let mut rng = Pcg64::seed_from_u64(opts.seed);
+    let mut rig = random_rig(
+        &mut rng,
+        RigOptions {
+            width: opts.width,
+            height: opts.height,
+            positions: opts.positions,
+        },
+    );
+    rig.intrinsics.distortion = opts.distortion;
+    (rig, rng)
+}
+
 /// Renders the board at every shot of every position of a random rig and
 /// writes the bundle at `out_dir` (which must not exist), with the true rig
 /// beside it as `truth-rig.toml`. Returns the manifest written.
@@ -479,16 +496,7 @@ pub fn write_board_bundle(
             "samples and shots per position must be at least 1".into(),
         ));
     }
-    let mut rng = Pcg64::seed_from_u64(opts.seed);
-    let mut rig = random_rig(
-        &mut rng,
-        RigOptions {
-            width: opts.width,
-            height: opts.height,
-            positions: opts.positions,
-        },
-    );
-    rig.intrinsics.distortion = opts.distortion;
+    let (rig, mut rng) = board_rig(opts);
     let board = board_for(&rig, opts.inner_corners);
     let reference = reference_placement(&board, &rig);
     let env = Environment::from_spec(&board_scene(&board, reference, &rig).environment)?;
