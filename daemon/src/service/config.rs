@@ -77,6 +77,9 @@ pub struct CalibrationSettings {
     /// Whether the board's mount has a second seat to photograph the board
     /// on at every position (`seat`).
     pub seat: bool,
+    /// Frames averaged into each photo of the board resting at the
+    /// reference or on the seat (`resting_frames`).
+    pub resting_frames: usize,
     /// Positions to photograph when the rig has no calibration file yet.
     pub positions: usize,
     /// The light-calibration sphere's radius, metres (`sphere_radius`);
@@ -101,6 +104,7 @@ impl Default for CalibrationSettings {
             shots: 8,
             projector_shots: 12,
             seat: true,
+            resting_frames: 4,
             positions: 1,
             sphere_radius: None,
             sphere_placements: 6,
@@ -429,6 +433,7 @@ struct RawCalibration {
     shots: Option<usize>,
     projector_shots: Option<usize>,
     seat: Option<bool>,
+    resting_frames: Option<usize>,
     positions: Option<usize>,
     sphere_radius: Option<f64>,
     sphere_placements: Option<usize>,
@@ -728,7 +733,15 @@ fn calibration(
     let shots = raw.shots.unwrap_or(defaults.shots);
     let projector_shots = raw.projector_shots.unwrap_or(defaults.projector_shots);
     let seat = raw.seat.unwrap_or(defaults.seat);
-    BoardPlan::new(shots, projector_shots, seat).map_err(|e| invalid("calibration.shots", e))?;
+    let resting_frames = raw.resting_frames.unwrap_or(defaults.resting_frames);
+    BoardPlan::new(shots, projector_shots, seat, resting_frames).map_err(|e| {
+        let key = if e.starts_with("resting_frames") {
+            "calibration.resting_frames"
+        } else {
+            "calibration.shots"
+        };
+        invalid(key, e)
+    })?;
     let positions = raw.positions.unwrap_or(defaults.positions);
     if positions == 0 {
         return Err(invalid(
@@ -768,6 +781,7 @@ fn calibration(
         shots,
         projector_shots,
         seat,
+        resting_frames,
         positions,
         sphere_radius: raw.sphere_radius,
         sphere_placements,
@@ -1196,6 +1210,10 @@ mod tests {
                 "rig = \"simulated\"\n[calibration]\nboard = [9, 6]\nsquare = 0.03\n\
                  reference_to_world = [2,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1]",
                 "`calibration.reference_to_world`: expected a rigid transform",
+            ),
+            (
+                "rig = \"simulated\"\n[calibration]\nresting_frames = 0",
+                "`calibration.resting_frames`: resting_frames = 0: expected 1 to 16",
             ),
             (
                 "rig = \"simulated\"\n[calibration]\nshots = 0",

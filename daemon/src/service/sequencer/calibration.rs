@@ -63,21 +63,43 @@ pub struct BoardPlan {
     /// One more photo per position with the board on the mount's further
     /// seat ([`SEAT`]).
     pub seat: bool,
+    /// Frames averaged into each photo of a resting board (the reference
+    /// and the seat): the positions rest on those photos, and averaging
+    /// lowers the camera's noise in them.
+    pub resting_frames: usize,
 }
 
 impl BoardPlan {
     /// Most poses per position or for the projector a request may ask.
     pub const MAX_SHOTS: usize = 64;
 
-    /// The plan, unless there is not even the reference shot or a count
-    /// exceeds [`BoardPlan::MAX_SHOTS`] (the error says what is expected).
-    pub fn new(shots: usize, projector_shots: usize, seat: bool) -> Result<BoardPlan, String> {
+    /// Most frames averaged into one photo of a resting board.
+    pub const MAX_RESTING_FRAMES: usize = 16;
+
+    /// The plan, unless there is not even the reference shot, a count
+    /// exceeds [`BoardPlan::MAX_SHOTS`], or `resting_frames` is outside 1
+    /// to [`BoardPlan::MAX_RESTING_FRAMES`] (the error says what is
+    /// expected).
+    pub fn new(
+        shots: usize,
+        projector_shots: usize,
+        seat: bool,
+        resting_frames: usize,
+    ) -> Result<BoardPlan, String> {
         let max = Self::MAX_SHOTS;
+        if !(1..=Self::MAX_RESTING_FRAMES).contains(&resting_frames) {
+            return Err(format!(
+                "resting_frames = {resting_frames}: expected 1 to {} frames per photo of a \
+                 resting board",
+                Self::MAX_RESTING_FRAMES
+            ));
+        }
         ((1..=max).contains(&shots) && projector_shots <= max)
             .then_some(BoardPlan {
                 shots,
                 projector_shots,
                 seat,
+                resting_frames,
             })
             .ok_or_else(|| {
                 format!(
@@ -165,7 +187,7 @@ impl CalibrationPlan {
         match self {
             CalibrationPlan::Board(b) => serde_json::json!({
                 "target": "board", "shots": b.shots, "projector_shots": b.projector_shots,
-                "seat": b.seat,
+                "seat": b.seat, "resting_frames": b.resting_frames,
             }),
             CalibrationPlan::Sphere(s) => serde_json::json!({
                 "target": "sphere", "placements": s.placements,
@@ -294,7 +316,11 @@ impl RigDevices {
             for (s, (placement, place, task)) in resting.chain(held).enumerate() {
                 self.present(index, place, &task, settings, stop, prompt)?;
                 let file = folder.join(format!("board-{s:02}.exr"));
-                self.photograph_board(pending.path(), &file, stop)?;
+                let frames = match placement {
+                    BoardPlacement::Held => 1,
+                    _ => plan.resting_frames,
+                };
+                self.photograph_board(pending.path(), &file, frames, stop)?;
                 done += 1;
                 progress(Progress {
                     done,
@@ -325,7 +351,7 @@ impl RigDevices {
                     let shot = folder.join(format!("projector-{k:02}"));
                     create_dir(&pending.path().join(&shot))?;
                     let file = shot.join("board.exr");
-                    self.photograph_board(pending.path(), &file, stop)?;
+                    self.photograph_board(pending.path(), &file, 1, stop)?;
                     done += 1;
                     progress(Progress {
                         done,
@@ -681,6 +707,17 @@ impl RigDevices {
         lights: &[LightId],
         stop: &dyn Fn() -> bool,
     ) -> Result<RgbRaster, CaptureError> {
+        self.photo_averaged(lights, 1, stop)
+    }
+
+    /// The mean of `frames` photos (at least one) with `lights` on at
+    /// full power, then off again.
+    fn photo_averaged(
+        &mut self,
+        lights: &[LightId],
+        frames: usize,
+        stop: &dyn Fn() -> bool,
+    ) -> Result<RgbRaster, CaptureError> {
         if stop() {
             return Err(CaptureError::Cancelled);
         }
@@ -688,12 +725,31 @@ impl RigDevices {
             self.lights.on(light, Level::FULL)?;
         }
         self.camera.scene_changed(monotonic_now());
-        let frame = self.camera.capture();
+        let mut sum: Result<RgbRaster, CaptureError> =
+            self.camera.capture().map(|f| f.rgb).map_err(Into::into);
+        for _ in 1..frames.max(1) {
+            let Ok(total) = sum.as_mut() else { break };
+            match self.camera.capture() {
+                Ok(frame) => {
+                    for (t, v) in total.data.iter_mut().zip(&frame.rgb.data) {
+                        for c in 0..3 {
+                            t[c] += v[c];
+                        }
+                    }
+                }
+                Err(e) => sum = Err(e.into()),
+            }
+        }
         for &light in lights {
             self.lights.off(light)?;
         }
         self.camera.scene_changed(monotonic_now());
-        Ok(frame?.rgb)
+        let mut mean = sum?;
+        let scale = 1.0 / frames.max(1) as f32;
+        for v in mean.data.iter_mut().flatten() {
+            *v *= scale;
+        }
+        Ok(mean)
     }
 
     /// The Gray-code images each projector pose needs; an error when the
@@ -761,9 +817,10 @@ impl RigDevices {
         &mut self,
         root: &Path,
         file: &Path,
+        frames: usize,
         stop: &dyn Fn() -> bool,
     ) -> Result<(), CaptureError> {
-        let rgb = self.photo_with(&[LightId::Flash0, LightId::Flash1], stop)?;
+        let rgb = self.photo_averaged(&[LightId::Flash0, LightId::Flash1], frames, stop)?;
         self.write_photo(root, file, &rgb)
     }
 

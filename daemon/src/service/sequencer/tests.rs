@@ -153,6 +153,17 @@ fn hand_turned_rig() -> (
     matscan_drivers::sim_rig::SimPositioner,
     FootswitchButton,
 ) {
+    hand_turned_rig_with(matscan_drivers::sim_rig::SimFaults::default())
+}
+
+/// [`hand_turned_rig`] with the simulated devices' `faults`.
+fn hand_turned_rig_with(
+    faults: matscan_drivers::sim_rig::SimFaults,
+) -> (
+    RigDevices,
+    matscan_drivers::sim_rig::SimPositioner,
+    FootswitchButton,
+) {
     let RigChoice::Simulated(c) = sim(2, false, FaultConfig::default()) else {
         unreachable!("sim() makes a simulated rig");
     };
@@ -172,6 +183,7 @@ fn hand_turned_rig() -> (
             width: c.size,
             height: c.size,
             samples: 1,
+            faults,
             ..Default::default()
         },
     )
@@ -326,7 +338,7 @@ fn a_calibration_prompts_the_operator_for_each_board_pose_and_publishes_the_bund
     rig.calibration_target = Some(board_target());
     let target = dir.path().join("calib-0001");
     let mut prompts = Vec::new();
-    let plan = CalibrationPlan::Board(BoardPlan::new(3, 1, true).unwrap());
+    let plan = CalibrationPlan::Board(BoardPlan::new(3, 1, true, 2).unwrap());
     let out = with_ready_operator(button, || {
         rig.capture_calibration(
             plan,
@@ -375,6 +387,45 @@ fn a_calibration_prompts_the_operator_for_each_board_pose_and_publishes_the_bund
 }
 
 #[test]
+fn a_resting_boards_photo_averages_the_frames_the_plan_asks_for() {
+    // A camera that dies after two frames: two one-frame photos of the
+    // reference (one per position) pass; the first three-frame one fails,
+    // leaving nothing behind.
+    let run = |frames: usize| {
+        let dir = tempfile::tempdir().unwrap();
+        let (mut rig, _turntable, button) =
+            hand_turned_rig_with(matscan_drivers::sim_rig::SimFaults {
+                camera_lost_after: Some(2),
+                ..Default::default()
+            });
+        rig.calibration_target = Some(board_target());
+        let target = dir.path().join("calib-0001");
+        let plan = CalibrationPlan::Board(BoardPlan::new(1, 0, false, frames).unwrap());
+        let out = with_ready_operator(button, || {
+            rig.capture_calibration(
+                plan,
+                &target,
+                &settings(),
+                &|| false,
+                &mut |_| {},
+                &mut |_| {},
+            )
+        });
+        let left = std::fs::read_dir(dir.path()).unwrap().count();
+        (out.map(|o| o.photos), left)
+    };
+    let (one, left) = run(1);
+    assert_eq!((one.unwrap(), left), (2, 1));
+    let (three, left) = run(3);
+    let err = three.unwrap_err();
+    assert!(err.to_string().contains("unplugged"), "{err}");
+    assert_eq!(left, 0);
+    assert!(BoardPlan::new(1, 0, false, 0)
+        .unwrap_err()
+        .contains("resting_frames = 0"));
+}
+
+#[test]
 fn a_calibration_without_a_board_or_a_projector_says_what_is_missing_and_writes_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let (mut rig, _turntable, _button) = hand_turned_rig();
@@ -391,7 +442,7 @@ fn a_calibration_without_a_board_or_a_projector_says_what_is_missing_and_writes_
     };
     let err = run(
         &mut rig,
-        CalibrationPlan::Board(BoardPlan::new(3, 0, true).unwrap()),
+        CalibrationPlan::Board(BoardPlan::new(3, 0, true, 1).unwrap()),
     )
     .unwrap_err();
     assert!(matches!(err, CaptureError::NoCalibrationTarget), "{err}");
@@ -400,7 +451,7 @@ fn a_calibration_without_a_board_or_a_projector_says_what_is_missing_and_writes_
     rig.projector = None;
     let err = run(
         &mut rig,
-        CalibrationPlan::Board(BoardPlan::new(3, 2, true).unwrap()),
+        CalibrationPlan::Board(BoardPlan::new(3, 2, true, 1).unwrap()),
     )
     .unwrap_err();
     assert!(err.to_string().contains("no projector"), "{err}");
