@@ -590,7 +590,7 @@ impl TargetHand for SimHand {
     fn place(&mut self, position: usize, placement: TargetPlacement) -> Result<(), DriverError> {
         let scene = match placement {
             TargetPlacement::Reference => Ok(self.holder.reference()),
-            TargetPlacement::Seat => Ok(self.holder.on_seat()),
+            TargetPlacement::Seat => self.holder.on_seat(),
             TargetPlacement::HandHeld => self.holder.hand_held(position, false),
             TargetPlacement::InProjectorView => self.holder.hand_held(position, true),
             TargetPlacement::Sphere => self.sphere.place(position),

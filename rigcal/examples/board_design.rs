@@ -191,7 +191,7 @@ fn trial(seed: u64, draw: u64, design: &Design) -> Option<Errors> {
     let mut resting: Vec<(BoardPlacement, DMat4)> =
         vec![(BoardPlacement::Reference, reference); design.photos_per_seat];
     if design.seat {
-        let seat = seat_placement(&board, &rig);
+        let seat = seat_placement(&board, &rig)?;
         resting.extend(std::iter::repeat_n(
             (BoardPlacement::Seat(SEAT.into()), seat),
             design.photos_per_seat,

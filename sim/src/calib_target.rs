@@ -235,39 +235,62 @@ pub fn reference_placement(board: &Chessboard, rig: &Rig) -> DMat4 {
     DMat4::from_rotation_translation(DQuat::from_mat3(&rotation), -(rotation * centre))
 }
 
-/// The mount's further seat: the reference placement turned about the
-/// world's vertical (+Y) through the origin, by the angle (30 to 90
-/// degrees either way) that keeps every position's camera seeing the
-/// printed side nearest [`REFERENCE_VIEW_DEG`]. Seen together with the
-/// reference, the two boards are a target with depth; the calibration
-/// finds the turn itself, so a real mount's seat need only repeat.
-pub fn seat_placement(board: &Chessboard, rig: &Rig) -> DMat4 {
+/// The mount's further seat: the reference placement tilted about its own
+/// long (column) axis or turned about the world's vertical (+Y), through
+/// its centre, by 30 to 90 degrees either way: of the placements whose
+/// printed side every position's camera sees within 65 degrees of
+/// head-on, with the board's columns
+/// running across the photo and longer there than its rows (so the
+/// detector labels it as at the reference), the one that keeps every
+/// camera nearest [`REFERENCE_VIEW_DEG`]. `None` when no such placement
+/// exists. Seen together with the reference, the two boards are a target
+/// with depth; the calibration finds the seat's placement itself, so a
+/// real mount's seat need only repeat.
+pub fn seat_placement(board: &Chessboard, rig: &Rig) -> Option<DMat4> {
     let reference = reference_placement(board, rig);
     let target = REFERENCE_VIEW_DEG.to_radians();
     let centre = board.corner(board.cols - 1, board.rows - 1) * 0.5;
-    let miss = |m: &DMat4| {
+    let (last_col, last_row) = (board.cols - 1, board.rows - 1);
+    // How far from the target view the worst camera sees the board; `None`
+    // where some camera sees its back or would label it turned.
+    let miss = |m: &DMat4| -> Option<f64> {
         // The board's z axis points into the print: the camera sees the
         // printed side where it points away from the camera.
         let normal = m.transform_vector3(DVec3::Z).normalize_or_zero();
-        rig.positions
-            .iter()
-            .map(|p| {
-                let to_camera = (p.camera_to_world.w_axis.truncate() - m.transform_point3(centre))
-                    .normalize_or_zero();
-                let facing = -normal.dot(to_camera);
-                if facing <= 0.0 {
-                    f64::INFINITY
-                } else {
-                    (facing.clamp(0.0, 1.0).acos() - target).abs()
-                }
-            })
-            .fold(0.0, f64::max)
+        let mut worst: f64 = 0.0;
+        for p in &rig.positions {
+            let camera = PinholeCamera::new(rig.intrinsics, p.camera_to_world);
+            let at = |i, j| camera.project(m.transform_point3(board.corner(i, j)));
+            let (origin, across, down) = (at(0, 0)?, at(last_col, 0)?, at(0, last_row)?);
+            let (cols, rows) = (across - origin, down - origin);
+            let upright = cols.length() > 1.1 * rows.length()
+                && cols.x.abs() > 2.0 * cols.y.abs()
+                && rows.y.abs() > 2.0 * rows.x.abs();
+            let to_camera = (p.camera_to_world.w_axis.truncate() - m.transform_point3(centre))
+                .normalize_or_zero();
+            let facing = -normal.dot(to_camera);
+            // Steeper than 65 degrees, corners blur into each other.
+            if facing < 65f64.to_radians().cos() || !upright {
+                return None;
+            }
+            worst = worst.max((facing.clamp(0.0, 1.0).acos() - target).abs());
+        }
+        Some(worst)
     };
-    (6..=18)
-        .flat_map(|k| [-1.0, 1.0].map(|side| side * f64::from(k) * 5.0))
-        .map(|deg: f64| DMat4::from_rotation_y(deg.to_radians()) * reference)
-        .min_by(|a, b| miss(a).total_cmp(&miss(b)))
-        .unwrap_or(reference)
+    let long_axis = reference.transform_vector3(DVec3::X).normalize_or_zero();
+    [long_axis, DVec3::Y]
+        .into_iter()
+        .flat_map(|axis| {
+            (6..=18).flat_map(move |k| {
+                [-1.0, 1.0].map(|side| {
+                    let angle = (side * f64::from(k) * 5.0_f64).to_radians();
+                    DMat4::from_axis_angle(axis, angle) * reference
+                })
+            })
+        })
+        .filter_map(|m| miss(&m).map(|worst| (m, worst)))
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .map(|(m, _)| m)
 }
 
 /// How a person holds the board: tilted within `tilt_deg` about an axis
@@ -415,13 +438,10 @@ impl BoardHolder {
     }
 
     /// The scene with the board on the mount's further seat
-    /// ([`seat_placement`]).
-    pub fn on_seat(&self) -> Scene {
-        board_scene(
-            &self.board,
-            seat_placement(&self.board, &self.rig),
-            &self.rig,
-        )
+    /// ([`seat_placement`]); an error when no seat suits every camera.
+    pub fn on_seat(&self) -> Result<Scene, SimError> {
+        let seat = seat_placement(&self.board, &self.rig).ok_or_else(no_seat)?;
+        Ok(board_scene(&self.board, seat, &self.rig))
     }
 
     /// The rig the board is held before.
@@ -465,6 +485,14 @@ impl BoardHolder {
         })?;
         Ok(board_scene(&self.board, pose, &self.rig))
     }
+}
+
+fn no_seat() -> SimError {
+    SimError::Options(
+        "no second seat shows every camera the board's printed side with its columns across \
+         the photo; calibrate without the seat"
+            .into(),
+    )
 }
 
 /// The random rig `write_board_bundle` photographs for `opts` (its seed,
@@ -514,14 +542,11 @@ pub fn write_board_bundle(
             source: e,
         })?;
         let mut shots = Vec::new();
-        let resting =
-            std::iter::once((BoardPlacement::Reference, reference)).chain(opts.seat.then(|| {
-                (
-                    BoardPlacement::Seat(SEAT.into()),
-                    seat_placement(&board, &rig),
-                )
-            }));
-        let mut placed: Vec<(BoardPlacement, DMat4)> = resting.collect();
+        let mut placed = vec![(BoardPlacement::Reference, reference)];
+        if opts.seat {
+            let seat = seat_placement(&board, &rig).ok_or_else(no_seat)?;
+            placed.push((BoardPlacement::Seat(SEAT.into()), seat));
+        }
         for _ in 1..opts.shots_per_position {
             let pose = hand_held_pose(&mut rng, &board, &rig, position.camera_to_world, None)
                 .ok_or_else(|| {
@@ -673,5 +698,46 @@ pub fn truth_rig(rig: &Rig) -> Manifest {
                 white_reference_mask: None,
             })
             .collect(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_second_seat_shows_every_camera_the_board_upright_at_an_angle_to_the_reference() {
+        for seed in 1..=8 {
+            let (rig, _) = board_rig(&BoardBundleOptions {
+                seed,
+                ..BoardBundleOptions::default()
+            });
+            let board = board_for(&rig, INNER_CORNERS);
+            let reference = reference_placement(&board, &rig);
+            let seat = seat_placement(&board, &rig)
+                .unwrap_or_else(|| panic!("rig {seed}: no seat placement"));
+            let (normal, reference_normal) = (
+                seat.transform_vector3(DVec3::Z),
+                reference.transform_vector3(DVec3::Z),
+            );
+            let turn = normal.angle_between(reference_normal).to_degrees();
+            assert!((29.9..=90.1).contains(&turn), "rig {seed}: turned {turn}");
+            for p in &rig.positions {
+                let camera = PinholeCamera::new(rig.intrinsics, p.camera_to_world);
+                let centre =
+                    seat.transform_point3(board.corner(board.cols - 1, board.rows - 1) * 0.5);
+                let to_camera = (p.camera_to_world.w_axis.truncate() - centre).normalize();
+                let tilt = (-normal.dot(to_camera)).acos().to_degrees();
+                assert!(tilt < 70.0, "rig {seed} {}: seen at {tilt} degrees", p.name);
+                let at = |i, j| {
+                    camera
+                        .project(seat.transform_point3(board.corner(i, j)))
+                        .unwrap()
+                };
+                let cols = at(board.cols - 1, 0) - at(0, 0);
+                let rows = at(0, board.rows - 1) - at(0, 0);
+                assert!(cols.length() > rows.length(), "rig {seed} {}", p.name);
+            }
+        }
     }
 }
