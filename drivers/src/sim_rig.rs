@@ -208,6 +208,7 @@ impl SimBench {
                 config: config.clone(),
                 settings,
                 frames: 0,
+                exposure: 0,
                 cache: None,
                 patterns_seen: Vec::new(),
             },
@@ -252,6 +253,9 @@ pub struct SimCamera {
     config: SimConfig,
     settings: CameraSettings,
     frames: u64,
+    /// Which noise the renders draw: a repeated exposure of an unchanged
+    /// scene is a fresh render, as a real sensor's frames are fresh noise.
+    exposure: u64,
     cache: Option<PhotoCache>,
     /// Every projector pattern a capture has shown, so that the next
     /// position renders them in its first pass.
@@ -412,7 +416,12 @@ impl SimCamera {
         let renderer = Renderer::new(scene).map_err(render_err)?;
         let opts = RenderOptions {
             samples: self.config.samples.max(1),
-            seed: self.config.seed,
+            // A prime step keeps each exposure's noise apart from the
+            // seeds other configurations use.
+            seed: self
+                .config
+                .seed
+                .wrapping_add(self.exposure.wrapping_mul(1_000_003)),
             ..RenderOptions::default()
         };
         renderer
@@ -444,6 +453,41 @@ impl Camera for SimCamera {
 
     /// Renders are exact snapshots of the state, so nothing is ever stale.
     fn scene_changed(&mut self, _at: Duration) {}
+
+    /// The first frame as [`Camera::capture`] gives it; each further one
+    /// rendered afresh with its own noise. The renders of the first stay
+    /// what later captures at this placement see.
+    fn capture_mean(&mut self, frames: usize) -> Result<crate::Frame, DriverError> {
+        let mut mean = self.capture()?;
+        let count = frames.max(1);
+        let kept = self.cache.take();
+        let mut result = Ok(());
+        for k in 1..count {
+            self.exposure = k as u64;
+            self.cache = None;
+            match self.capture() {
+                Ok(next) => {
+                    for (m, v) in mean.rgb.data.iter_mut().zip(&next.rgb.data) {
+                        for c in 0..3 {
+                            m[c] += v[c];
+                        }
+                    }
+                }
+                Err(e) => {
+                    result = Err(e);
+                    break;
+                }
+            }
+        }
+        self.exposure = 0;
+        self.cache = kept;
+        result?;
+        let scale = 1.0 / count as f32;
+        for v in mean.rgb.data.iter_mut().flatten() {
+            *v *= scale;
+        }
+        Ok(mean)
+    }
 
     fn capture(&mut self) -> Result<crate::Frame, DriverError> {
         if let Some(n) = self.config.faults.camera_lost_after {

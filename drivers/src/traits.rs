@@ -319,6 +319,27 @@ pub trait Camera {
     fn scene_changed(&mut self, at: Duration);
     /// One fresh frame.
     fn capture(&mut self) -> Result<Frame, DriverError>;
+    /// The mean of `frames` fresh frames (at least one) of a scene that
+    /// does not change meanwhile: each frame's noise is its own, so the
+    /// mean's falls with the square root of their number. The stamp and
+    /// counter are the first frame's.
+    fn capture_mean(&mut self, frames: usize) -> Result<Frame, DriverError> {
+        let mut mean = self.capture()?;
+        let count = frames.max(1);
+        for _ in 1..count {
+            let next = self.capture()?;
+            for (m, v) in mean.rgb.data.iter_mut().zip(&next.rgb.data) {
+                for c in 0..3 {
+                    m[c] += v[c];
+                }
+            }
+        }
+        let scale = 1.0 / count as f32;
+        for v in mean.rgb.data.iter_mut().flatten() {
+            *v *= scale;
+        }
+        Ok(mean)
+    }
 }
 
 /// The light controller; `Ok` means the controller acknowledged.

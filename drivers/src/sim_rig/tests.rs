@@ -343,3 +343,28 @@ fn the_operator_holds_the_sphere_before_the_backlight_and_its_photos_show_the_pr
     rig.camera.capture().unwrap();
     assert_eq!(rig.camera.cache.as_ref().unwrap().emitters.len(), cached);
 }
+
+#[test]
+fn a_mean_of_frames_draws_fresh_noise_and_leaves_the_next_capture_as_it_was() {
+    let mut rig = SimulatedRig::new(scene(), config(SimFaults::default())).unwrap();
+    rig.lights.on(LightId::Flash0, Level::FULL).unwrap();
+    let single = rig.camera.capture().unwrap();
+    let averaged = rig.camera.capture_mean(8).unwrap();
+    let again = rig.camera.capture().unwrap();
+    assert_eq!(again.rgb, single.rgb, "the placement's render is kept");
+    // Two paths per pixel: the frames' noise differs, the light does not.
+    let spread = |f: &crate::Frame| {
+        let m = mean(f);
+        let n = f.rgb.data.len() as f32;
+        (f.rgb.data.iter().map(|p| (p[1] - m).powi(2)).sum::<f32>() / n).sqrt()
+    };
+    assert_ne!(averaged.rgb, single.rgb);
+    assert!(averaged.rgb.data.iter().flatten().all(|v| v.is_finite()));
+    assert!(
+        (mean(&averaged) / mean(&single) - 1.0).abs() < 0.1,
+        "{} vs {}",
+        mean(&averaged),
+        mean(&single)
+    );
+    assert!(spread(&averaged) < spread(&single), "the mean is smoother");
+}

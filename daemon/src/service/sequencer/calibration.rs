@@ -710,8 +710,9 @@ impl RigDevices {
         self.photo_averaged(lights, 1, stop)
     }
 
-    /// The mean of `frames` photos (at least one) with `lights` on at
-    /// full power, then off again.
+    /// The mean of `frames` photos (at least one,
+    /// [`matscan_drivers::Camera::capture_mean`])
+    /// with `lights` on at full power, then off again.
     fn photo_averaged(
         &mut self,
         lights: &[LightId],
@@ -725,31 +726,12 @@ impl RigDevices {
             self.lights.on(light, Level::FULL)?;
         }
         self.camera.scene_changed(monotonic_now());
-        let mut sum: Result<RgbRaster, CaptureError> =
-            self.camera.capture().map(|f| f.rgb).map_err(Into::into);
-        for _ in 1..frames.max(1) {
-            let Ok(total) = sum.as_mut() else { break };
-            match self.camera.capture() {
-                Ok(frame) => {
-                    for (t, v) in total.data.iter_mut().zip(&frame.rgb.data) {
-                        for c in 0..3 {
-                            t[c] += v[c];
-                        }
-                    }
-                }
-                Err(e) => sum = Err(e.into()),
-            }
-        }
+        let frame = self.camera.capture_mean(frames);
         for &light in lights {
             self.lights.off(light)?;
         }
         self.camera.scene_changed(monotonic_now());
-        let mut mean = sum?;
-        let scale = 1.0 / frames.max(1) as f32;
-        for v in mean.data.iter_mut().flatten() {
-            *v *= scale;
-        }
-        Ok(mean)
+        Ok(frame?.rgb)
     }
 
     /// The Gray-code images each projector pose needs; an error when the
