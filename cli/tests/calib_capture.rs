@@ -41,11 +41,12 @@ fn calib_capture_through_the_daemon_calibrates_the_simulated_rig_and_names_a_mis
     );
     let bundle = d.scans.join("calib-0001");
     assert_eq!(v["bundle"], bundle.display().to_string());
-    // 2 x 6 board shots, 3 Gray-code poses of a flash photo and 2 x 20
-    // stripe images each (a 1024 x 768 projector: 10 bits per axis).
-    assert_eq!(v["summary"]["shots"], 15, "{v}");
+    // 2 x (6 board shots and the second seat), 3 Gray-code poses of a
+    // flash photo and 2 x 20 stripe images each (a 1024 x 768 projector:
+    // 10 bits per axis).
+    assert_eq!(v["summary"]["shots"], 17, "{v}");
     assert_eq!(v["summary"]["graycode_shots"], 3);
-    assert_eq!(v["summary"]["photos"], 12 + 3 * 41);
+    assert_eq!(v["summary"]["photos"], 14 + 3 * 41);
     let status: Value = serde_json::from_str(&stdout(&matscan(&[
         "status", "--socket", &socket, "--json",
     ])))
@@ -71,7 +72,9 @@ fn calib_capture_through_the_daemon_calibrates_the_simulated_rig_and_names_a_mis
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let out = stdout(&o);
     assert!(
-        out.contains("15 shots") && out.contains("3 Gray-code shots"),
+        out.contains("17 shots")
+            && out.contains("3 Gray-code shots")
+            && out.contains("seat-2 holds the board turned"),
         "{out}"
     );
     for f in ["rig.toml", "calib-report.toml", "contact-sheet.png"] {

@@ -331,6 +331,7 @@ fn rendered(
         inner_corners: (7, 5),
         samples: 4,
         seed,
+        resting_frames: 1,
         ..BoardBundleOptions::default()
     };
     let m = write_board_bundle(&opts, &bundle).unwrap();

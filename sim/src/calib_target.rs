@@ -59,6 +59,9 @@ pub struct BoardBundleOptions {
     /// One more shot per position with the board on the mount's further
     /// seat ([`seat_placement`]).
     pub seat: bool,
+    /// Frames averaged into each photo of a resting board (the reference
+    /// and the seat), each rendered with its own noise.
+    pub resting_frames: usize,
     /// Further shots at the first position with the projector's Gray
     /// codes on the board (0 for none).
     pub projector_shots: usize,
@@ -80,6 +83,7 @@ impl Default for BoardBundleOptions {
             positions: 3,
             shots_per_position: 8,
             seat: true,
+            resting_frames: 4,
             projector_shots: 12,
             inner_corners: INNER_CORNERS,
             distortion: [-0.08, 0.05, 0.0005, -0.0003, 0.0],
@@ -560,10 +564,34 @@ pub fn write_board_bundle(
         for (s, (placement, board_to_world)) in placed.into_iter().enumerate() {
             let scene = board_scene(&board, board_to_world, &rig);
             let renderer = Renderer::with_environment(&scene, env.clone());
-            let photo = renderer
+            // A resting board's photo is the mean of fresh frames, as the
+            // daemon takes it: each frame a render with its own noise.
+            let frames = match placement {
+                BoardPlacement::Held => 1,
+                _ => opts.resting_frames.max(1),
+            };
+            let mut photo = renderer
                 .render_position(p, &capture, &ropts)?
                 .photos
                 .remove(0);
+            for k in 1..frames {
+                let fresh = RenderOptions {
+                    seed: ropts.seed.wrapping_add(k as u64 * 1_000_003),
+                    ..ropts.clone()
+                };
+                let next = renderer
+                    .render_position(p, &capture, &fresh)?
+                    .photos
+                    .remove(0);
+                for (m, v) in photo.data.iter_mut().zip(&next.data) {
+                    for c in 0..3 {
+                        m[c] += v[c];
+                    }
+                }
+            }
+            for v in photo.data.iter_mut().flatten() {
+                *v /= frames as f32;
+            }
             let file = PathBuf::from(&position.name).join(format!("board-{s:02}.exr"));
             write_rgb_exr(&pending.path().join(&file), &photo, Precision::Half)?;
             shots.push(Shot {

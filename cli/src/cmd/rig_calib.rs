@@ -68,6 +68,10 @@ pub struct BoardArgs {
     /// seat.
     #[arg(long)]
     pub no_seat: bool,
+    /// Frames averaged into each photo of the resting board (the
+    /// reference and the seat), each rendered with its own noise.
+    #[arg(long, default_value_t = 4)]
+    pub resting_frames: usize,
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Paths per pixel.
@@ -194,6 +198,7 @@ pub fn run_board(a: BoardArgs) -> Result<()> {
         shots_per_position: a.shots,
         projector_shots: a.projector_shots,
         seat: !a.no_seat,
+        resting_frames: a.resting_frames,
         seed: a.seed,
         samples: a.samples,
         ..BoardBundleOptions::default()
