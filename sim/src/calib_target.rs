@@ -577,7 +577,7 @@ pub fn write_board_bundle(
             for k in 1..frames {
                 let fresh = RenderOptions {
                     seed: ropts.seed.wrapping_add(k as u64 * 1_000_003),
-                    ..ropts.clone()
+                    ..ropts
                 };
                 let next = renderer
                     .render_position(p, &capture, &fresh)?
