@@ -280,61 +280,12 @@ pub fn solve_camera(
         }
         shot_poses.push(pose);
     }
-    // The unknown poses: one per position (the reference board's frame to
-    // the camera), one per held shot, one per seat (its board's frame to
-    // the reference board's).
-    let mut poses: Vec<Pose> = Vec::new();
-    let mut position_pose: Vec<Option<usize>> = vec![None; manifest.positions.len()];
-    let mut seats: Vec<(&str, usize)> = Vec::new();
-    let mut fit_points = Vec::with_capacity(points.len());
-    // Reference shots first, so each position's pose starts from its view
-    // of the reference and every seat from the first position that saw
-    // both.
-    let order: Vec<usize> = (0..points.len())
-        .filter(|&k| shots[k].1.placement == BoardPlacement::Reference)
-        .chain((0..points.len()).filter(|&k| shots[k].1.placement != BoardPlacement::Reference))
-        .collect();
-    let mut assigned: Vec<Option<ShotPoints>> = vec![None; points.len()];
-    for k in order {
-        let (p, shot) = shots[k];
-        fn own(poses: &mut Vec<Pose>, pose: Pose) -> usize {
-            poses.push(pose);
-            poses.len() - 1
-        }
-        let (pose, placement) = match &shot.placement {
-            BoardPlacement::Held => (own(&mut poses, shot_poses[k]), None),
-            BoardPlacement::Reference => (
-                *position_pose[p].get_or_insert_with(|| own(&mut poses, shot_poses[k])),
-                None,
-            ),
-            BoardPlacement::Seat(name) => {
-                let Some(index) = position_pose[p] else {
-                    return Err(RigcalError::Degenerate(format!(
-                        "{}: a board on seat {name} needs the reference photographed from the \
-                         same position",
-                        dir.join(&shot.file).display()
-                    )));
-                };
-                let seat = match seats.iter().find(|(n, _)| n == name) {
-                    Some(&(_, i)) => i,
-                    None => {
-                        let start = poses[index].matrix().inverse() * shot_poses[k].matrix();
-                        let i = own(&mut poses, Pose::from_matrix(&start));
-                        seats.push((name, i));
-                        i
-                    }
-                };
-                (index, Some(seat))
-            }
-        };
-        assigned[k] = Some(ShotPoints {
-            board: points[k].board.clone(),
-            pixels: points[k].pixels.clone(),
-            pose,
-            placement,
-        });
-    }
-    fit_points.extend(assigned.into_iter().flatten());
+    let Unknowns {
+        poses,
+        points: fit_points,
+        position_pose,
+        seats,
+    } = unknowns(dir, manifest, &shots, &points, &shot_poses)?;
     let mut refined = refine(&start, &poses, &fit_points, crate::refine::CAMERA_FIXED);
     let camera_to_world = manifest
         .positions
@@ -349,9 +300,9 @@ pub fn solve_camera(
         })
         .collect();
     let seats: Vec<SeatReport> = seats
-        .iter()
-        .map(|&(name, i)| SeatReport {
-            name: name.to_string(),
+        .into_iter()
+        .map(|(name, i)| SeatReport {
+            name,
             to_reference: matscan_scan::camera::mat4_to_row_major(&refined.poses[i].matrix()),
             turn_deg: refined.poses[i].rotation.length().to_degrees(),
         })
@@ -372,17 +323,89 @@ pub fn solve_camera(
         detections,
         &points,
         refined,
-        camera_to_world,
+        (camera_to_world, seats),
         acceptance,
-    )
-    .with_seats(seats))
+    ))
 }
 
-impl CameraCalibration {
-    fn with_seats(mut self, seats: Vec<SeatReport>) -> CameraCalibration {
-        self.report.seats = seats;
-        self
+/// What the joint refinement moves, and which shot hangs on what.
+struct Unknowns {
+    poses: Vec<Pose>,
+    /// Each shot's points, in the frame of its pose (or its seat's).
+    points: Vec<ShotPoints>,
+    /// Per position, the index of its pose (the reference board's frame
+    /// to the camera); `None` for a position without a resting board.
+    position_pose: Vec<Option<usize>>,
+    /// Per seat, its name and the index of its pose (its board's frame to
+    /// the reference board's).
+    seats: Vec<(String, usize)>,
+}
+
+/// One pose per position, per held shot and per seat, each started from
+/// the closed-form shot poses: a position's from its view of the
+/// reference, a seat's from the first position that saw it.
+fn unknowns(
+    dir: &Path,
+    manifest: &CalibManifest,
+    shots: &[(usize, &matscan_scan::calib_bundle::Shot)],
+    points: &[ShotPoints],
+    shot_poses: &[Pose],
+) -> Result<Unknowns, RigcalError> {
+    fn own(poses: &mut Vec<Pose>, pose: Pose) -> usize {
+        poses.push(pose);
+        poses.len() - 1
     }
+    let mut poses: Vec<Pose> = Vec::new();
+    let mut position_pose: Vec<Option<usize>> = vec![None; manifest.positions.len()];
+    let mut seats: Vec<(String, usize)> = Vec::new();
+    // Reference shots first, so that every position's pose exists when its
+    // seat shots come.
+    let is_reference = |k: &usize| shots[*k].1.placement == BoardPlacement::Reference;
+    let order = (0..points.len())
+        .filter(is_reference)
+        .chain((0..points.len()).filter(|k| !is_reference(k)));
+    let mut assigned: Vec<Option<ShotPoints>> = vec![None; points.len()];
+    for k in order {
+        let (p, shot) = shots[k];
+        let (pose, placement) = match &shot.placement {
+            BoardPlacement::Held => (own(&mut poses, shot_poses[k]), None),
+            BoardPlacement::Reference => (
+                *position_pose[p].get_or_insert_with(|| own(&mut poses, shot_poses[k])),
+                None,
+            ),
+            BoardPlacement::Seat(name) => {
+                let Some(index) = position_pose[p] else {
+                    return Err(RigcalError::Degenerate(format!(
+                        "{}: a board on seat {name} needs the reference photographed from the \
+                         same position",
+                        dir.join(&shot.file).display()
+                    )));
+                };
+                let seat = match seats.iter().find(|(n, _)| n == name) {
+                    Some(&(_, i)) => i,
+                    None => {
+                        let start = poses[index].matrix().inverse() * shot_poses[k].matrix();
+                        let i = own(&mut poses, Pose::from_matrix(&start));
+                        seats.push((name.clone(), i));
+                        i
+                    }
+                };
+                (index, Some(seat))
+            }
+        };
+        assigned[k] = Some(ShotPoints {
+            board: points[k].board.clone(),
+            pixels: points[k].pixels.clone(),
+            pose,
+            placement,
+        });
+    }
+    Ok(Unknowns {
+        poses,
+        points: assigned.into_iter().flatten().collect(),
+        position_pose,
+        seats,
+    })
 }
 
 fn judge(
@@ -391,7 +414,7 @@ fn judge(
     detections: Vec<Vec<Corner>>,
     points: &[ShotPoints],
     refined: crate::refine::Refined,
-    camera_to_world: Vec<(String, DMat4)>,
+    (camera_to_world, seats): (Vec<(String, DMat4)>, Vec<SeatReport>),
     acceptance: &Acceptance,
 ) -> CameraCalibration {
     let camera = refined.camera;
@@ -480,7 +503,7 @@ fn judge(
             problems,
             retake,
             shots: reports,
-            seats: Vec::new(),
+            seats,
         },
         corners: detections.into_iter().zip(reprojected).collect(),
         poses: refined.poses,
