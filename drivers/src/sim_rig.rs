@@ -458,35 +458,16 @@ impl Camera for SimCamera {
     /// rendered afresh with its own noise. The renders of the first stay
     /// what later captures at this placement see.
     fn capture_mean(&mut self, frames: usize) -> Result<crate::Frame, DriverError> {
-        let mut mean = self.capture()?;
-        let count = frames.max(1);
+        let first = self.capture()?;
         let kept = self.cache.take();
-        let mut result = Ok(());
-        for k in 1..count {
+        let rgb = first.rgb.mean_with(frames.saturating_sub(1), |k| {
             self.exposure = k as u64;
             self.cache = None;
-            match self.capture() {
-                Ok(next) => {
-                    for (m, v) in mean.rgb.data.iter_mut().zip(&next.rgb.data) {
-                        for c in 0..3 {
-                            m[c] += v[c];
-                        }
-                    }
-                }
-                Err(e) => {
-                    result = Err(e);
-                    break;
-                }
-            }
-        }
+            self.capture().map(|f| f.rgb)
+        });
         self.exposure = 0;
         self.cache = kept;
-        result?;
-        let scale = 1.0 / count as f32;
-        for v in mean.rgb.data.iter_mut().flatten() {
-            *v *= scale;
-        }
-        Ok(mean)
+        Ok(crate::Frame { rgb: rgb?, ..first })
     }
 
     fn capture(&mut self) -> Result<crate::Frame, DriverError> {
@@ -515,11 +496,7 @@ impl Camera for SimCamera {
             let Some(light) = images.get(*emitter) else {
                 continue;
             };
-            for (o, v) in rgb.data.iter_mut().zip(&light.data) {
-                for c in 0..3 {
-                    o[c] += level * v[c];
-                }
-            }
+            rgb.add_scaled(light, *level);
         }
         for p in rgb.data.iter_mut() {
             for v in p.iter_mut() {

@@ -324,21 +324,11 @@ pub trait Camera {
     /// mean's falls with the square root of their number. The stamp and
     /// counter are the first frame's.
     fn capture_mean(&mut self, frames: usize) -> Result<Frame, DriverError> {
-        let mut mean = self.capture()?;
-        let count = frames.max(1);
-        for _ in 1..count {
-            let next = self.capture()?;
-            for (m, v) in mean.rgb.data.iter_mut().zip(&next.rgb.data) {
-                for c in 0..3 {
-                    m[c] += v[c];
-                }
-            }
-        }
-        let scale = 1.0 / count as f32;
-        for v in mean.rgb.data.iter_mut().flatten() {
-            *v *= scale;
-        }
-        Ok(mean)
+        let first = self.capture()?;
+        let rgb = first
+            .rgb
+            .mean_with(frames.saturating_sub(1), |_| Ok(self.capture()?.rgb))?;
+        Ok(Frame { rgb, ..first })
     }
 }
 

@@ -16,11 +16,11 @@ use matscan_sim::calib_target::{
 use matscan_sim::render::{CaptureSpec, RenderOptions, Renderer};
 use std::path::Path;
 
-fn main() {
+fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (rig, _) = board_rig(&BoardBundleOptions::default());
     let board = board_for(&rig, INNER_CORNERS);
     let scene = board_scene(&board, reference_placement(&board, &rig), &rig);
-    let renderer = Renderer::new(&scene).unwrap();
+    let renderer = Renderer::new(&scene)?;
     let capture = [CaptureSpec::new("board", &["flash0", "flash1"], None)];
     let mut found = Vec::new();
     for seed in [1u64, 2, 3] {
@@ -30,11 +30,10 @@ fn main() {
             ..RenderOptions::default()
         };
         let photo = renderer
-            .render_position(0, &capture, &opts)
-            .expect("the board renders")
+            .render_position(0, &capture, &opts)?
             .photos
             .remove(0);
-        found.push(find_board(&photo, &board, Path::new("render")).expect("the board is found"));
+        found.push(find_board(&photo, &board, Path::new("render"))?);
     }
     for (a, b) in [(0, 1), (0, 2), (1, 2)] {
         let d: Vec<f64> = found[a]
@@ -48,4 +47,5 @@ fn main() {
             rms / 2f64.sqrt() / 2f64.sqrt()
         );
     }
+    Ok(())
 }

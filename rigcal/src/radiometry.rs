@@ -295,7 +295,7 @@ impl CardView {
     }
 }
 
-/// The ambient photos read so far, by file.
+/// Ambient photos by file, each read and size-checked once, on first use.
 #[derive(Default)]
 struct Ambients(Vec<(PathBuf, RgbRaster)>);
 

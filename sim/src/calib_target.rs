@@ -570,28 +570,22 @@ pub fn write_board_bundle(
                 BoardPlacement::Held => 1,
                 _ => opts.resting_frames.max(1),
             };
-            let mut photo = renderer
+            let photo = renderer
                 .render_position(p, &capture, &ropts)?
                 .photos
-                .remove(0);
-            for k in 1..frames {
-                let fresh = RenderOptions {
-                    seed: ropts.seed.wrapping_add(k as u64 * 1_000_003),
-                    ..ropts
-                };
-                let next = renderer
-                    .render_position(p, &capture, &fresh)?
-                    .photos
-                    .remove(0);
-                for (m, v) in photo.data.iter_mut().zip(&next.data) {
-                    for c in 0..3 {
-                        m[c] += v[c];
-                    }
-                }
-            }
-            for v in photo.data.iter_mut().flatten() {
-                *v /= frames as f32;
-            }
+                .remove(0)
+                .mean_with(frames - 1, |k| {
+                    let fresh = RenderOptions {
+                        seed: ropts.seed.wrapping_add(k as u64 * 1_000_003),
+                        ..ropts
+                    };
+                    Ok::<_, SimError>(
+                        renderer
+                            .render_position(p, &capture, &fresh)?
+                            .photos
+                            .remove(0),
+                    )
+                })?;
             let file = PathBuf::from(&position.name).join(format!("board-{s:02}.exr"));
             write_rgb_exr(&pending.path().join(&file), &photo, Precision::Half)?;
             shots.push(Shot {

@@ -734,14 +734,10 @@ fn calibration(
     let projector_shots = raw.projector_shots.unwrap_or(defaults.projector_shots);
     let seat = raw.seat.unwrap_or(defaults.seat);
     let resting_frames = raw.resting_frames.unwrap_or(defaults.resting_frames);
-    BoardPlan::new(shots, projector_shots, seat, resting_frames).map_err(|e| {
-        let key = if e.starts_with("resting_frames") {
-            "calibration.resting_frames"
-        } else {
-            "calibration.shots"
-        };
-        invalid(key, e)
-    })?;
+    BoardPlan::check_resting_frames(resting_frames)
+        .map_err(|e| invalid("calibration.resting_frames", e))?;
+    BoardPlan::new(shots, projector_shots, seat, resting_frames)
+        .map_err(|e| invalid("calibration.shots", e))?;
     let positions = raw.positions.unwrap_or(defaults.positions);
     if positions == 0 {
         return Err(invalid(

@@ -76,6 +76,19 @@ impl BoardPlan {
     /// Most frames averaged into one photo of a resting board.
     pub const MAX_RESTING_FRAMES: usize = 16;
 
+    /// An error saying what is expected unless `resting_frames` is 1 to
+    /// [`BoardPlan::MAX_RESTING_FRAMES`].
+    pub fn check_resting_frames(resting_frames: usize) -> Result<(), String> {
+        if (1..=Self::MAX_RESTING_FRAMES).contains(&resting_frames) {
+            return Ok(());
+        }
+        Err(format!(
+            "resting_frames = {resting_frames}: expected 1 to {} frames per photo of a resting \
+             board",
+            Self::MAX_RESTING_FRAMES
+        ))
+    }
+
     /// The plan, unless there is not even the reference shot, a count
     /// exceeds [`BoardPlan::MAX_SHOTS`], or `resting_frames` is outside 1
     /// to [`BoardPlan::MAX_RESTING_FRAMES`] (the error says what is
@@ -87,13 +100,7 @@ impl BoardPlan {
         resting_frames: usize,
     ) -> Result<BoardPlan, String> {
         let max = Self::MAX_SHOTS;
-        if !(1..=Self::MAX_RESTING_FRAMES).contains(&resting_frames) {
-            return Err(format!(
-                "resting_frames = {resting_frames}: expected 1 to {} frames per photo of a \
-                 resting board",
-                Self::MAX_RESTING_FRAMES
-            ));
-        }
+        Self::check_resting_frames(resting_frames)?;
         ((1..=max).contains(&shots) && projector_shots <= max)
             .then_some(BoardPlan {
                 shots,

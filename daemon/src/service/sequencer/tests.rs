@@ -386,6 +386,23 @@ fn a_calibration_prompts_the_operator_for_each_board_pose_and_publishes_the_bund
     );
 }
 
+/// `plan`'s calibration capture into `target`, with no prompts, progress
+/// or stop.
+fn capture_quietly(
+    rig: &mut RigDevices,
+    plan: CalibrationPlan,
+    target: &std::path::Path,
+) -> Result<CalibrationOutcome, CaptureError> {
+    rig.capture_calibration(
+        plan,
+        target,
+        &settings(),
+        &|| false,
+        &mut |_| {},
+        &mut |_| {},
+    )
+}
+
 #[test]
 fn a_resting_boards_photo_averages_the_frames_the_plan_asks_for() {
     // A camera that dies after two frames: two one-frame photos of the
@@ -401,16 +418,7 @@ fn a_resting_boards_photo_averages_the_frames_the_plan_asks_for() {
         rig.calibration_target = Some(board_target());
         let target = dir.path().join("calib-0001");
         let plan = CalibrationPlan::Board(BoardPlan::new(1, 0, false, frames).unwrap());
-        let out = with_ready_operator(button, || {
-            rig.capture_calibration(
-                plan,
-                &target,
-                &settings(),
-                &|| false,
-                &mut |_| {},
-                &mut |_| {},
-            )
-        });
+        let out = with_ready_operator(button, || capture_quietly(&mut rig, plan, &target));
         let left = std::fs::read_dir(dir.path()).unwrap().count();
         (out.map(|o| o.photos), left)
     };
@@ -430,16 +438,7 @@ fn a_calibration_without_a_board_or_a_projector_says_what_is_missing_and_writes_
     let dir = tempfile::tempdir().unwrap();
     let (mut rig, _turntable, _button) = hand_turned_rig();
     let target = dir.path().join("calib-0001");
-    let run = |rig: &mut RigDevices, plan| {
-        rig.capture_calibration(
-            plan,
-            &target,
-            &settings(),
-            &|| false,
-            &mut |_| {},
-            &mut |_| {},
-        )
-    };
+    let run = |rig: &mut RigDevices, plan| capture_quietly(rig, plan, &target);
     let err = run(
         &mut rig,
         CalibrationPlan::Board(BoardPlan::new(3, 0, true, 1).unwrap()),
@@ -462,16 +461,12 @@ fn a_calibration_without_a_board_or_a_projector_says_what_is_missing_and_writes_
 fn a_sphere_capture_without_a_sphere_radius_says_so_and_writes_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let (mut rig, _turntable, _button) = hand_turned_rig();
-    let err = rig
-        .capture_calibration(
-            CalibrationPlan::Sphere(SpherePlan::new(3).unwrap()),
-            &dir.path().join("calib-0001"),
-            &settings(),
-            &|| false,
-            &mut |_| {},
-            &mut |_| {},
-        )
-        .unwrap_err();
+    let err = capture_quietly(
+        &mut rig,
+        CalibrationPlan::Sphere(SpherePlan::new(3).unwrap()),
+        &dir.path().join("calib-0001"),
+    )
+    .unwrap_err();
     assert!(matches!(err, CaptureError::NoSphere), "{err}");
     assert!(err.to_string().contains("sphere_radius"), "{err}");
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
