@@ -1,7 +1,7 @@
 //! Where an estimate's error sits, truth material by truth material: for
 //! every simulated scan under a folder that holds an estimate (its
-//! `estimate/` folder, or `--estimates DIR/<scan name>`), the pixels of the
-//! reference position grouped by their truth material (basecolor,
+//! `estimate/` folder, or `ESTIMATES/<scan name>`), the pixels of the
+//! estimate's reference position (its `result.toml`) grouped by their truth material (basecolor,
 //! roughness, metallic, transmission and subsurface rounded to 0.01), and
 //! per group of at least 2 % of the object its truth, the estimate's
 //! median and the group's mean absolute error per parameter. A
@@ -11,6 +11,8 @@
 //!
 //!   cargo run --release -p matscan-estimate --example material_errors -- data/tune [ESTIMATES]
 
+use matscan_estimate::pipeline::metrics::error_metrics;
+use matscan_estimate::pipeline::output::ResultFile;
 use matscan_scan::estimate_maps::read_position_maps;
 use matscan_scan::{Bundle, Param};
 use std::collections::BTreeMap;
@@ -53,7 +55,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!("scan | pixels | truth bc r m t s | estimate bc r m t s | MAD bc r m t s");
     for scan in matscan_scan::bundle::find_bundles(root)? {
         let bundle = Bundle::open(&scan)?;
-        let reference = bundle.manifest.positions[0].name.clone();
         let name = scan
             .file_name()
             .map(|n| n.to_string_lossy().to_string())
@@ -62,6 +63,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             Some(d) => d.join(&name),
             None => scan.join("estimate"),
         };
+        let Ok(text) = std::fs::read_to_string(est_dir.join("result.toml")) else {
+            continue;
+        };
+        let reference = ResultFile::parse(&text)?.reference_position;
         let Some(maps) = read_position_maps(&est_dir, &reference)? else {
             continue;
         };
@@ -91,23 +96,19 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             if px.len() * 50 < total {
                 continue;
             }
+            let mut in_group = vec![false; mask.data.len()];
+            px.iter().for_each(|&i| in_group[i] = true);
             let mut med = Vec::new();
             let mut mad = Vec::new();
-            for (j, _) in ORDER.iter().enumerate() {
-                let ch = if j == 0 { 3 } else { 1 };
-                let mut vals = Vec::new();
-                let mut err = 0.0f64;
-                for &i in px {
-                    let mut s = 0.0;
-                    for c in 0..ch {
-                        s += (est[j][ch * i + c] - truth[j][ch * i + c]).abs();
-                    }
-                    err += f64::from(s / ch as f32);
-                    let lum: f32 = (0..ch).map(|c| est[j][ch * i + c]).sum::<f32>() / ch as f32;
-                    vals.push(lum);
-                }
-                med.push(median(vals));
-                mad.push(err / px.len() as f64);
+            for (j, p) in ORDER.iter().enumerate() {
+                let ch = p.channels();
+                let metrics = error_metrics(&est[j], &truth[j], &in_group, ch);
+                mad.push(metrics.map_or(f64::NAN, |m| m.mad));
+                med.push(median(
+                    px.iter()
+                        .map(|&i| est[j][ch * i..ch * (i + 1)].iter().sum::<f32>() / ch as f32)
+                        .collect(),
+                ));
             }
             let bc = (k[0] + k[1] + k[2]) as f32 / 300.0;
             println!(
