@@ -29,7 +29,9 @@
 //!
 //! What the photos cannot pin is reported, not invented: a material's
 //! roughness is pinned when its cost curve over roughness has a clear
-//! minimum, metallic when one choice explains the photos clearly better,
+//! minimum (at the grid's roughest lobe only for a dielectric whose
+//! direct light shows nothing but its surface: see
+//! [`SURFACE_ONLY_SHARE`]), metallic when one choice explains the photos clearly better,
 //! a pixel's basecolor when at least one observation counted. Where a
 //! [`Fallback`] is given (the networks' answer), unpinned values come
 //! from it.
@@ -166,6 +168,14 @@ fn clear_transmission<A>(
 /// what a point reflects; light scattered under the surface is a large
 /// share of it (the checker's blur).
 pub const SCATTERING_SHARE: f64 = 0.3;
+
+/// A material's global share below which its global light is no more
+/// than a surface reflects onto itself. On `tune` most opaque dielectrics
+/// show under 0.02 (one in a concave blob 0.06), glossy glass, which
+/// refracts the checker, 0.07, and subsurface scattering 0.1 and up: a
+/// material above it is not trusted to be a rough surface when its
+/// roughest lobe wins.
+pub const SURFACE_ONLY_SHARE: f64 = 0.03;
 
 impl FitLight {
     pub const ALL: [FitLight; 3] = [FitLight::Total, FitLight::Direct, FitLight::Material];
@@ -752,11 +762,20 @@ where
         // Light through a material rules out a metal, which transmits
         // nothing and scatters nothing inside.
         let dielectric = reading.is_some_and(|r| r.passage == Passage::Passes);
+        let measured_share = separated.then(|| global_share(&list, &total_light));
         let mut material = choose(
-            &by_direct, &grid, &list, known, dielectric, fallback, options,
+            &by_direct,
+            &grid,
+            &list,
+            known,
+            Evidence {
+                dielectric,
+                surface_only: !dielectric && measured_share.is_some_and(|s| s < SURFACE_ONLY_SHARE),
+            },
+            fallback,
+            options,
         );
-        let share = (separated && options.light == FitLight::Material)
-            .then(|| global_share(&list, &total_light));
+        let share = measured_share.filter(|_| options.light == FitLight::Material);
         let scatters = share.is_some_and(|s| s >= SCATTERING_SHARE);
         // A material whose direct light pins it as metal but whose total
         // light does not scatters light inside or through it: its direct
@@ -777,7 +796,16 @@ where
             // concave metal, light it reflects onto itself: the total
             // light's own fit decides metallic.
             let in_total = choose(
-                &by_total, &grid, &list, known, dielectric, fallback, options,
+                &by_total,
+                &grid,
+                &list,
+                known,
+                Evidence {
+                    dielectric,
+                    surface_only: false,
+                },
+                fallback,
+                options,
             );
             if scatters || !pinned_metal(&in_total) {
                 material = MaterialFit {
@@ -1078,16 +1106,28 @@ fn argmin(v: &[f64]) -> Option<usize> {
         .map(|(i, _)| i)
 }
 
+/// What the photos say of a material before its cost volume is read.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+struct Evidence {
+    /// Light passes through it (the backlight): it is no metal.
+    dielectric: bool,
+    /// The volume is its measured direct light, and its global light is
+    /// below [`SURFACE_ONLY_SHARE`] with none seen through it: nothing
+    /// but its surface lobe can be what the costs favour.
+    surface_only: bool,
+}
+
 /// A material's roughness and metallic from its summed cost volume.
 fn choose(
     total: &[f64],
     grid: &[f32],
     members: &[usize],
     known: Known<'_>,
-    dielectric: bool,
+    evidence: Evidence,
     fallback: Option<Fallback<'_>>,
     options: &FitOptions,
 ) -> MaterialFit {
+    let dielectric = evidence.dielectric;
     let median = |v: &[f32]| -> Option<f32> {
         let mut s: Vec<f32> = members.iter().filter_map(|&i| v.get(i).copied()).collect();
         quantile(&mut s, 0.5)
@@ -1111,17 +1151,25 @@ fn choose(
     let other = if m == 1 { dielectric.1 } else { metal.1 };
     // The roughest lobe on the grid winning means no surface lobe explains
     // the photos (light scattered inside or through the material, or a
-    // truly rough surface): such a material does not pin its roughness,
-    // and a metal call there is the degenerate one (a broad metal lobe
-    // imitating diffuse light), so only a dielectric call is kept.
-    let explained = k + 1 < r;
+    // truly rough surface), and a metal call there is the degenerate one
+    // (a broad metal lobe imitating diffuse light), so only a dielectric
+    // call is kept. For a material that shows nothing but its surface, a
+    // dielectric's roughest lobe winning is a truly rough surface.
+    let at_edge = k + 1 >= r;
+    let explained = !at_edge || (m == 0 && evidence.surface_only);
     let metallic_pinned = known_metallic.is_some()
-        || ((explained || m == 0) && other > best * (1.0 + options.metallic_contrast) + 1e-9);
+        || ((!at_edge || m == 0) && other > best * (1.0 + options.metallic_contrast) + 1e-9);
     let row = row_of(m);
     let worst = row.iter().copied().fold(0.0f64, f64::max);
     let roughness_pinned = known_roughness.is_some()
         || (explained && worst > best * (1.0 + options.roughness_contrast) + 1e-9);
-    let roughness = known_roughness.unwrap_or_else(|| parabola_minimum(row, grid, k));
+    let roughness = known_roughness.unwrap_or_else(|| {
+        if at_edge {
+            edge_minimum(row, grid)
+        } else {
+            parabola_minimum(row, grid, k)
+        }
+    });
     let roughness = match (roughness_pinned, fallback) {
         (false, Some(f)) => median(f.roughness).unwrap_or(roughness),
         _ => roughness,
@@ -1168,6 +1216,25 @@ fn parabola_minimum(row: &[f64], grid: &[f32], k: usize) -> f32 {
     }
     let xm = (-b / (2.0 * a)).clamp(x0, x2);
     (xm.exp() as f32).clamp(grid[0], 1.0)
+}
+
+/// Where the costs still fall at the grid's roughest lobe: the minimum
+/// of the parabola through the last three costs, between the last two
+/// grid points, or the roughest lobe where the parabola does not bend
+/// upward.
+fn edge_minimum(row: &[f64], grid: &[f32]) -> f32 {
+    let r = row.len().min(grid.len());
+    if r < 3 {
+        return grid[r.saturating_sub(1)];
+    }
+    let k = r - 2;
+    let x = |i: usize| f64::from(grid[i]).ln();
+    let slope = |a: usize, b: usize| (row[b] - row[a]) / (x(b) - x(a));
+    if slope(k, k + 1) > slope(k - 1, k) {
+        parabola_minimum(&row[..r], &grid[..r], k).clamp(grid[k], grid[r - 1])
+    } else {
+        grid[r - 1]
+    }
 }
 
 #[cfg(test)]

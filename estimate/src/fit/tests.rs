@@ -257,7 +257,7 @@ fn at_the_roughest_lobe_a_dielectric_call_is_kept_and_a_metal_call_is_left_to_th
         &grid,
         &members,
         Known::default(),
-        false,
+        Evidence::default(),
         Some(fallback),
         &options,
     );
@@ -270,7 +270,7 @@ fn at_the_roughest_lobe_a_dielectric_call_is_kept_and_a_metal_call_is_left_to_th
         &grid,
         &members,
         Known::default(),
-        false,
+        Evidence::default(),
         Some(fallback),
         &options,
     );
@@ -283,7 +283,7 @@ fn at_the_roughest_lobe_a_dielectric_call_is_kept_and_a_metal_call_is_left_to_th
         &grid,
         &members,
         Known::default(),
-        false,
+        Evidence::default(),
         Some(Fallback {
             metallic: &network_dielectric,
             ..fallback
@@ -291,6 +291,69 @@ fn at_the_roughest_lobe_a_dielectric_call_is_kept_and_a_metal_call_is_left_to_th
         &options,
     );
     assert_eq!(metal_against_a_dielectric_network.metallic, 0.0);
+}
+
+#[test]
+fn a_surface_only_dielectric_at_the_roughest_lobe_pins_its_roughness_there() {
+    let grid = roughness_grid();
+    let members: Vec<usize> = (0..4).collect();
+    let network_rough = [0.4f32; 4];
+    let fallback = Fallback {
+        basecolor: &[[0.5f32; 3]; 4],
+        roughness: &network_rough,
+        metallic: &[0.0f32; 4],
+    };
+    let surface = Evidence {
+        dielectric: false,
+        surface_only: true,
+    };
+    let options = FitOptions::default();
+    // Costs still falling at the end: the roughest lobe itself.
+    let rough = choose(
+        &falling_rows(false, 1.0),
+        &grid,
+        &members,
+        Known::default(),
+        surface,
+        Some(fallback),
+        &options,
+    );
+    assert!(rough.roughness_pinned);
+    assert_eq!(rough.roughness, 1.0);
+    // Costs levelling off toward the end (least at roughness 0.905, past
+    // the grid's last but one point): the parabola's minimum.
+    let r = grid.len();
+    let levelling: Vec<f64> = (0..r)
+        .map(|k| 100.0 + 50.0 * (f64::from(grid[k]).ln() + 0.1).powi(2))
+        .chain(std::iter::repeat_n(1e4, r))
+        .collect();
+    let levelled = choose(
+        &levelling,
+        &grid,
+        &members,
+        Known::default(),
+        surface,
+        Some(fallback),
+        &options,
+    );
+    assert!(levelled.roughness_pinned);
+    assert!(
+        (levelled.roughness - 0.905).abs() < 0.002,
+        "{}",
+        levelled.roughness
+    );
+    // A flat row pins nothing, even for a surface.
+    let flat = choose(
+        &[vec![100.0; r], vec![200.0; r]].concat(),
+        &grid,
+        &members,
+        Known::default(),
+        surface,
+        Some(fallback),
+        &options,
+    );
+    assert!(!flat.roughness_pinned);
+    assert_eq!(flat.roughness, 0.4);
 }
 
 #[test]
