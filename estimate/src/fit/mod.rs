@@ -44,6 +44,7 @@
 //! scan's inputs and writes what comes back.
 
 pub mod backlight;
+pub mod highlight;
 pub mod linear;
 pub mod materials;
 pub mod separation;
@@ -55,6 +56,7 @@ use crate::refine::observe::{
 };
 use crate::refine::RefineError;
 use backlight::{measure_backlight, Backlight, BacklightOptions, MaterialBacklight, Passage};
+use highlight::{HighlightColour, HighlightOptions};
 use linear::{
     footprint_alpha2, responses, solve, solve_pulled, LinearFit, Noise, Pull, Response, Sample,
 };
@@ -108,6 +110,8 @@ pub struct FitOptions {
     /// Whether light passes through each material, read from the backlit
     /// photo ([`backlight`]); `None` leaves it unread.
     pub backlight: Option<BacklightOptions>,
+    /// How a metal's highlights are pooled into its colour.
+    pub highlight: HighlightOptions,
 }
 
 /// Which part of the photos' light the surface BSDF is fitted to.
@@ -224,6 +228,7 @@ impl Default for FitOptions {
             basecolor_pull: 2.0,
             light: FitLight::default(),
             backlight: Some(BacklightOptions::default()),
+            highlight: HighlightOptions::default(),
         }
     }
 }
@@ -286,6 +291,10 @@ pub struct MaterialFit {
     /// ([`backlight::transmission_from`]).
     #[serde(default)]
     pub transmission: Option<f32>,
+    /// A pinned metal's colour from its pooled highlights
+    /// ([`highlight::colour`]), or why they cannot say.
+    #[serde(default)]
+    pub highlight: Option<HighlightColour>,
 }
 
 impl MaterialFit {
@@ -415,6 +424,61 @@ impl Fitted {
                 *b = fit.map(|v| v.clamp(0.0, 1.0));
                 written += 1;
             }
+        }
+        if fitted == 0 {
+            0.0
+        } else {
+            written as f32 / fitted as f32
+        }
+    }
+}
+
+impl Fitted {
+    /// Gives the pixels of each metal whose highlights measured its colour
+    /// ([`MaterialFit::highlight`]) that colour as their mean: `basecolor`
+    /// (the networks' answer) keeps its texture within the material and
+    /// takes the measured colour, channel by channel. Returns the share of
+    /// the fitted pixels written.
+    pub fn metal_basecolor_into(&self, basecolor: &mut [[f32; 3]]) -> f32 {
+        let count = self.materials.len();
+        let mut sums = vec![([0.0f64; 3], 0usize); count];
+        for (b, label) in basecolor.iter().zip(&self.labels) {
+            if let Some(j) = *label {
+                if b.iter().all(|v| v.is_finite()) {
+                    for (s, v) in sums[j].0.iter_mut().zip(b) {
+                        *s += f64::from(*v);
+                    }
+                    sums[j].1 += 1;
+                }
+            }
+        }
+        let (mut written, mut fitted) = (0usize, 0usize);
+        for (b, label) in basecolor.iter_mut().zip(&self.labels) {
+            let Some(j) = *label else {
+                continue;
+            };
+            fitted += 1;
+            let Some(colour) = self.materials[j]
+                .highlight
+                .as_ref()
+                .and_then(|h| h.colour())
+            else {
+                continue;
+            };
+            let (sum, n) = sums[j];
+            for c in 0..3 {
+                let mean = if n > 0 { sum[c] / n as f64 } else { 0.0 };
+                let own = f64::from(b[c]);
+                // A channel the networks left black carries no texture to
+                // keep.
+                let v = if mean > 1e-3 && own.is_finite() {
+                    own * f64::from(colour[c]) / mean
+                } else {
+                    f64::from(colour[c])
+                };
+                b[c] = (v as f32).clamp(0.0, 1.0);
+            }
+            written += 1;
         }
         if fitted == 0 {
             0.0
@@ -858,6 +922,32 @@ where
             Some((r, fit))
         })
         .collect();
+    // A pinned metal's colour from its highlights, pooled over its pixels.
+    let mut members: Vec<Vec<usize>> = vec![Vec::new(); materials.len()];
+    for (i, label) in parts.labels.iter().enumerate() {
+        if let Some(j) = label {
+            members[*j].push(i);
+        }
+    }
+    let highlights: Vec<Option<HighlightColour>> = materials
+        .iter()
+        .enumerate()
+        .map(|(j, m)| {
+            if m.metallic < 0.5 || !m.metallic_pinned || !m.roughness_pinned {
+                return None;
+            }
+            let pooled: Vec<(&Sample, &Response)> = members[j]
+                .iter()
+                .filter_map(|&i| Some((observed(i, j), &own[i].as_ref()?.0)))
+                .flat_map(|(obs, r)| obs.iter().zip(r))
+                .collect();
+            Some(highlight::colour(
+                pooled.iter().copied(),
+                &options.noise,
+                &options.highlight,
+            ))
+        })
+        .collect();
     let mut means = vec![([0.0f64; 3], [0.0f64; 3]); materials.len()];
     for (own, label) in own.iter().zip(&parts.labels) {
         if let (Some((_, f)), Some(j)) = (own, label) {
@@ -944,10 +1034,11 @@ where
             }
         }
     }
-    for (m, (s, count)) in materials.iter_mut().zip(&sums) {
+    for ((m, h), (s, count)) in materials.iter_mut().zip(highlights).zip(&sums) {
         if *count > 0 {
             m.basecolor = s.map(|v| (v / *count as f64) as f32);
         }
+        m.highlight = h.map(|h| highlight::checked(h, m.basecolor, &options.highlight));
     }
     out.constrained = Constrained {
         basecolor: bc as f32 / object,
@@ -1195,6 +1286,7 @@ fn choose(
         backlight: None,
         global_share: None,
         transmission: None,
+        highlight: None,
     }
 }
 

@@ -5,6 +5,7 @@ use super::linear::Sample;
 use super::*;
 use crate::refine::model::{bsdf, Observation, Params};
 use glam::Vec3;
+use highlight::HighlightColour;
 
 /// A local frame with `n` as +Z.
 fn local(n: Vec3, v: Vec3) -> Vec3 {
@@ -382,6 +383,7 @@ fn pinned_roughness_replaces_only_the_pixels_of_materials_that_pinned_it() {
         backlight: None,
         global_share: None,
         transmission: None,
+        highlight: None,
     };
     let fitted = Fitted {
         basecolor: vec![[0.5; 3]; 4],
@@ -463,6 +465,7 @@ fn dielectric_basecolor_replaces_only_the_pixels_of_opaque_dielectric_materials(
         backlight: None,
         global_share: None,
         transmission: None,
+        highlight: None,
     };
     let fitted = Fitted {
         basecolor: vec![
@@ -859,6 +862,7 @@ fn transmission_and_subsurface_are_absent_only_where_the_photos_show_it() {
             }),
             global_share: global,
             transmission: None,
+            highlight: None,
         };
     use backlight::Passage::{Blocked, Partly, Passes};
     // A blocked metal (both hidden in it); a blocked dielectric (neither);
@@ -984,4 +988,66 @@ fn a_clear_material_that_passes_backlight_gets_its_transmission_and_basecolor_me
     assert!(close > object.len() * 9 / 10, "{close} of {}", object.len());
     let mut written = vec![[0.0f32; 3]; n];
     assert!(fitted.dielectric_basecolor_into(&mut written) > 0.9);
+}
+
+#[test]
+fn a_metals_measured_highlight_colour_becomes_its_mean_over_the_networks_texture() {
+    let metal = |highlight: Option<HighlightColour>| MaterialFit {
+        pixels: 2,
+        basecolor: [0.3; 3],
+        roughness: 0.3,
+        metallic: 1.0,
+        roughness_pinned: true,
+        metallic_pinned: true,
+        scattering: false,
+        backlight: None,
+        global_share: Some(0.0),
+        transmission: None,
+        highlight,
+    };
+    let materials = vec![
+        metal(Some(HighlightColour::Measured {
+            colour: [0.8, 0.4, 0.0],
+            observations: 40,
+            clipped: 0.0,
+        })),
+        metal(Some(HighlightColour::Blind {
+            reason: "no highlight".into(),
+        })),
+        metal(None),
+    ];
+    let fitted = Fitted {
+        basecolor: vec![[0.3; 3]; 6],
+        roughness: vec![0.3; 6],
+        metallic: vec![1.0; 6],
+        labels: vec![Some(0), Some(0), Some(1), Some(1), Some(2), None],
+        materials,
+        constrained: Constrained::default(),
+        notes: Vec::new(),
+        seconds: 0.0,
+    };
+    // The network's texture: one pixel half as bright as the other; a
+    // black blue channel.
+    let mut basecolor = vec![
+        [0.2, 0.2, 0.0],
+        [0.4, 0.4, 0.0],
+        [0.5; 3],
+        [0.5; 3],
+        [0.5; 3],
+        [0.5; 3],
+    ];
+    assert_eq!(fitted.metal_basecolor_into(&mut basecolor), 2.0 / 5.0);
+    let close = |a: [f32; 3], b: [f32; 3]| a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-6);
+    assert!(
+        close(basecolor[0], [0.8 * 2.0 / 3.0, 0.4 * 2.0 / 3.0, 0.0]),
+        "{:?}",
+        basecolor[0]
+    );
+    // Scaled past 1 it is clamped.
+    assert!(
+        close(basecolor[1], [1.0, 0.4 * 4.0 / 3.0, 0.0]),
+        "{:?}",
+        basecolor[1]
+    );
+    assert!(basecolor[2..].iter().all(|&b| b == [0.5; 3]));
 }

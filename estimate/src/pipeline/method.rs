@@ -43,9 +43,12 @@ pub enum Method {
     /// fit reads as opaque dielectrics (dielectric, and no light scattered
     /// inside): such a material's basecolor is its diffuse albedo, which
     /// every lit view measures whatever the lobe. A metal's is its
-    /// specular colour, which only its highlights show, and a material
-    /// that scatters light inside reflects it through a medium the surface
-    /// model does not have: there the basecolor network's answer stands.
+    /// specular colour, which only its highlights show: a pinned metal
+    /// whose pooled highlights measure it ([`crate::fit::highlight`]) takes
+    /// that colour as its mean over the basecolor network's texture. A
+    /// material that scatters light inside reflects it through a medium the
+    /// surface model does not have: there the basecolor network's answer
+    /// stands.
     ///
     /// The default: on the `tune` set, with the fit's light chosen per
     /// material, it lowers basecolor's MAD against `fit-specular` from

@@ -522,7 +522,7 @@ impl Pass<'_> {
                 pinned_roughness_over(&mut values, self.plan, &f);
             }
             if self.method.fit_basecolor_last() {
-                f.constrained.basecolor = dielectric_basecolor_over(&mut values, self.plan, &f);
+                f.constrained.basecolor = measured_basecolor_over(&mut values, self.plan, &f);
             }
             fits.add(self.method, &f, self.bundle, inputs);
         }
@@ -744,15 +744,18 @@ fn measured_over(values: &mut Values, plan: &Plan, fitted: &Fitted, kind: Param)
     }
 }
 
-/// Puts the fit's basecolor into `values` at the pixels of the materials
-/// it reads as dielectric (an estimated basecolor only); returns the share
-/// of the object it answered.
-fn dielectric_basecolor_over(values: &mut Values, plan: &Plan, fitted: &Fitted) -> f32 {
+/// Puts what the fit measured of basecolor into `values` (an estimated
+/// basecolor only): its own on the materials it reads as opaque
+/// dielectrics, the colour of their highlights on metals; returns the
+/// share of the object it answered.
+fn measured_basecolor_over(values: &mut Values, plan: &Plan, fitted: &Fitted) -> f32 {
     if *plan.decision(Param::Basecolor) != Decision::Estimate {
         return 0.0;
     }
     match values.basecolor.as_mut() {
-        Some(basecolor) => fitted.dielectric_basecolor_into(basecolor),
+        Some(basecolor) => {
+            fitted.dielectric_basecolor_into(basecolor) + fitted.metal_basecolor_into(basecolor)
+        }
         None => 0.0,
     }
 }
