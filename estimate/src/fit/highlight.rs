@@ -303,6 +303,23 @@ mod tests {
     }
 
     #[test]
+    fn a_one_pixel_metal_seen_from_one_view_reads_its_colour_from_that_view() {
+        let truth = [0.7, 0.5, 0.2];
+        let b = bsdf(&metal(truth, 0.3).to_x(), &Fixed::default());
+        let wo = Vec3::new(0.3, 0.0, 0.95).normalize();
+        let wi = Vec3::new(-0.25, 0.05, 0.97).normalize();
+        let one = [Sample::exact(Observation::rendered(&b, wo, wi, [2.0; 3]))];
+        let c = pooled(&one, 0.3).colour().expect("measured");
+        for (got, want) in c.iter().zip(truth) {
+            assert!((got - want).abs() < 1e-3, "{c:?} against {truth:?}");
+        }
+        // The same view with no trust left is no highlight at all.
+        let mut untrusted = one;
+        untrusted[0].observation.weight = 0.0;
+        assert!(pooled(&untrusted, 0.3).colour().is_none());
+    }
+
+    #[test]
     fn saturated_highlights_make_the_colour_blind_not_dark() {
         let mut photo = sphere(metal([0.9, 0.6, 0.3], 0.15));
         let top = photo
