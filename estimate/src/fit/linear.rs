@@ -273,6 +273,29 @@ pub fn solve_pulled(
     }
 }
 
+/// Each sample's robust cost at basecolor `x` (summed over channels,
+/// weighted by its trust).
+pub fn sample_costs(
+    samples: &[Sample],
+    responses: &[Response],
+    x: [f32; 3],
+    noise: &Noise,
+) -> Vec<f64> {
+    samples
+        .iter()
+        .zip(responses)
+        .map(|(s, p)| {
+            let w = f64::from(s.observation.weight);
+            if w.is_nan() || w <= 0.0 {
+                return 0.0;
+            }
+            (0..3)
+                .map(|c| w * huber(residual(s, p, c, f64::from(x[c]), noise), noise.huber_k).0)
+                .sum()
+        })
+        .collect()
+}
+
 /// The least-squares weight `w / σ²` of channel `c` (0: not counted).
 fn scale(s: &Sample, c: usize, noise: &Noise) -> f64 {
     let w = f64::from(s.observation.weight);

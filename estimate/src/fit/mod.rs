@@ -46,6 +46,7 @@
 pub mod backlight;
 pub mod highlight;
 pub mod linear;
+pub mod lobe;
 pub mod materials;
 pub mod separation;
 
@@ -60,6 +61,7 @@ use highlight::{HighlightColour, HighlightOptions};
 use linear::{
     footprint_alpha2, responses, solve, solve_pulled, LinearFit, Noise, Pull, Response, Sample,
 };
+use lobe::LobeOptions;
 use materials::{feature, split, Feature, Split, SplitOptions};
 use matscan_calib::photos::quantile;
 use matscan_calib::ScanCalibration;
@@ -112,6 +114,9 @@ pub struct FitOptions {
     pub backlight: Option<BacklightOptions>,
     /// How a metal's highlights are pooled into its colour.
     pub highlight: HighlightOptions,
+    /// How a scattering material's roughness is read from its highlights
+    /// ([`lobe`]); `None` leaves such a material to its total light's fit.
+    pub lobe: Option<LobeOptions>,
 }
 
 /// Which part of the photos' light the surface BSDF is fitted to.
@@ -229,6 +234,7 @@ impl Default for FitOptions {
             light: FitLight::default(),
             backlight: Some(BacklightOptions::default()),
             highlight: HighlightOptions::default(),
+            lobe: Some(LobeOptions::default()),
         }
     }
 }
@@ -295,6 +301,10 @@ pub struct MaterialFit {
     /// ([`highlight::colour`]), or why they cannot say.
     #[serde(default)]
     pub highlight: Option<HighlightColour>,
+    /// A scattering material whose roughness its views near the mirror
+    /// direction pinned ([`lobe`]): how many of its pixels had such a view.
+    #[serde(default)]
+    pub lobe_pixels: Option<usize>,
 }
 
 impl MaterialFit {
@@ -878,6 +888,42 @@ where
                 };
             }
         }
+        // The total light rarely pins a scattering dielectric's roughness:
+        // its highlights can.
+        let unread = material.scattering
+            && !material.roughness_pinned
+            && material.metallic < 0.5
+            && known.roughness.is_none();
+        if let (true, Some(direct), Some(lobe)) = (unread, direct.as_ref(), options.lobe) {
+            let rows: Vec<Vec<f64>> = list
+                .par_iter()
+                .filter_map(|&i| {
+                    let (volume, opaque) = match recosted.get(&i) {
+                        Some(v) => (v, true),
+                        None => (volumes[i].as_ref()?, false),
+                    };
+                    lobe::highlight_costs(
+                        &direct[i],
+                        &volume.basecolor[..grid.len()],
+                        &grid,
+                        &fixed_at(i, opaque),
+                        &options.noise,
+                        lobe.cone_cos,
+                    )
+                })
+                .collect();
+            if rows.len() >= lobe.min_pixels {
+                let mut summed = vec![0.0f64; grid.len()];
+                for row in &rows {
+                    summed.iter_mut().zip(row).for_each(|(t, c)| *t += c);
+                }
+                if let Some(r) = lobe::pinned(&summed, &grid, options.roughness_contrast) {
+                    material.roughness = r;
+                    material.roughness_pinned = true;
+                    material.lobe_pixels = Some(rows.len());
+                }
+            }
+        }
         material.backlight = reading;
         material.global_share = share.map(|s| s as f32);
         materials.push(material);
@@ -1287,6 +1333,7 @@ fn choose(
         global_share: None,
         transmission: None,
         highlight: None,
+        lobe_pixels: None,
     }
 }
 

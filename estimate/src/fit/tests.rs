@@ -384,6 +384,7 @@ fn pinned_roughness_replaces_only_the_pixels_of_materials_that_pinned_it() {
         global_share: None,
         transmission: None,
         highlight: None,
+        lobe_pixels: None,
     };
     let fitted = Fitted {
         basecolor: vec![[0.5; 3]; 4],
@@ -466,6 +467,7 @@ fn dielectric_basecolor_replaces_only_the_pixels_of_opaque_dielectric_materials(
         global_share: None,
         transmission: None,
         highlight: None,
+        lobe_pixels: None,
     };
     let fitted = Fitted {
         basecolor: vec![
@@ -863,6 +865,7 @@ fn transmission_and_subsurface_are_absent_only_where_the_photos_show_it() {
             global_share: global,
             transmission: None,
             highlight: None,
+            lobe_pixels: None,
         };
     use backlight::Passage::{Blocked, Partly, Passes};
     // A blocked metal (both hidden in it); a blocked dielectric (neither);
@@ -1004,6 +1007,7 @@ fn a_metals_measured_highlight_colour_becomes_its_mean_over_the_networks_texture
         global_share: Some(0.0),
         transmission: None,
         highlight,
+        lobe_pixels: None,
     };
     let materials = vec![
         metal(Some(HighlightColour::Measured {
