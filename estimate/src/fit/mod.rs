@@ -17,7 +17,9 @@
 //!    nearest measured pixel's where unmeasured); each material's roughness and
 //!    metallic is the grid point with the least summed cost over all its
 //!    pixels (one pixel rarely sees a highlight, a material does), refined
-//!    between grid points by a parabola in ln roughness.
+//!    between grid points by a parabola in ln roughness. A material that
+//!    scatters light inside takes its roughness from the views that look
+//!    into its highlights ([`lobe`]).
 //! 4. Basecolor per pixel in closed form at its material's roughness and
 //!    metallic.
 //!
