@@ -1058,7 +1058,16 @@ where
             (Some((b, r, m)), Some(j)) => {
                 out.basecolor[i] = b;
                 out.roughness[i] = r;
-                out.metallic[i] = m;
+                // Where the photos pin no metallic, the networks' answer
+                // stays per pixel: metal and dielectric can alternate
+                // within one colour, which one call from their median
+                // would throw away (multimat).
+                out.metallic[i] = match fallback {
+                    Some(f) if !materials[j].metallic_pinned => {
+                        f.metallic.get(i).copied().unwrap_or(m)
+                    }
+                    _ => m,
+                };
                 bc += 1;
                 rough += usize::from(materials[j].roughness_pinned);
                 metal += usize::from(materials[j].metallic_pinned);

@@ -209,6 +209,49 @@ fn a_material_seen_from_one_angle_only_leaves_roughness_to_the_fallback() {
 }
 
 #[test]
+fn a_material_whose_metallic_the_photos_leave_open_keeps_the_networks_per_pixel_map() {
+    // A black surface seen away from its highlight: metal and dielectric
+    // both explain it with basecolor 0, so metallic is not pinned, and the
+    // networks' answer stays pixel by pixel (metal and dielectric may
+    // alternate within one colour), not one call from its median.
+    let n = 64;
+    let mask = vec![true; n];
+    let truth = Params {
+        basecolor: [0.0; 3],
+        roughness: 0.1,
+        metallic: 0.0,
+    };
+    let b = bsdf(&truth.to_x(), &Fixed::default());
+    let observe = |_: usize| -> Vec<Sample> {
+        let wo = Vec3::new(0.3f32.sin(), 0.0, 0.3f32.cos());
+        let wi = Vec3::new(-(1.2f32).sin(), 0.0, 1.2f32.cos());
+        vec![Sample::exact(Observation::rendered(&b, wo, wi, [1.0; 3]))]
+    };
+    let network_metallic: Vec<f32> = (0..n).map(|i| if i % 3 == 0 { 0.9 } else { 0.1 }).collect();
+    let fitted = fit_pixels(
+        &mask,
+        8,
+        observe,
+        &vec![0.0; n],
+        Known::default(),
+        Some(Fallback {
+            basecolor: &vec![[0.0; 3]; n],
+            roughness: &vec![0.5; n],
+            metallic: &network_metallic,
+        }),
+        &FitOptions::default(),
+    );
+    assert_eq!(fitted.materials.len(), 1, "{:?}", fitted.materials);
+    assert!(
+        !fitted.materials[0].metallic_pinned,
+        "{:?}",
+        fitted.materials
+    );
+    assert_eq!(fitted.metallic, network_metallic);
+    assert_eq!(fitted.constrained.metallic, 0.0);
+}
+
+#[test]
 fn the_parabola_finds_a_minimum_between_grid_points() {
     let grid = roughness_grid();
     let target = 0.3f64.ln();
