@@ -59,8 +59,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             };
             let (mut dark, mut nd, mut lit, mut nl, mut light) =
                 (0.0f64, 0usize, 0.0f64, 0usize, 0.0f64);
-            for i in 0..inputs.pixels() {
-                if !mask[i] || planes.mask[i] < 0.5 {
+            for (i, &inside) in mask.iter().enumerate() {
+                if !inside || planes.mask.get(i).is_none_or(|&m| m < 0.5) {
                     continue;
                 }
                 let obs = planes.lit()[i];
