@@ -15,12 +15,9 @@
 //!   cargo run --release -p matscan-estimate --example backlight_probe -- data/tune
 
 use matscan_calib::photos::luma;
-use matscan_calib::{calibrate_bundle, CalibOptions};
 use matscan_estimate::fit::backlight::{measure_backlight, BacklightOptions};
-use matscan_estimate::pipeline::inputs::SceneInputs;
-use matscan_estimate::pipeline::views::{select_views, ViewFilter};
 use matscan_scan::bvh::{Ray, RayCaster};
-use matscan_scan::{Bundle, Param};
+use matscan_scan::Param;
 use std::collections::BTreeMap;
 use std::path::Path;
 
@@ -35,29 +32,20 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let root = Path::new(args.get(1).ok_or("usage: backlight_probe DIR")?);
     let list = matscan_scan::bundle::find_bundles(root)?;
     for scan in &list {
-        let bundle = Bundle::open(scan)?;
-        let calibration = calibrate_bundle(&bundle, &CalibOptions::default())?;
-        let set = select_views(&bundle.manifest, &calibration, &ViewFilter::default())?;
-        let inputs = SceneInputs::assemble(&bundle, &calibration, &set)?;
+        let opened = support::open(scan)?;
+        let (bundle, calibration, inputs) = (&opened.bundle, &opened.calibration, &opened.inputs);
         let name = scan.file_name().map_or_else(
             || scan.display().to_string(),
             |n| n.to_string_lossy().to_string(),
         );
-        let m = match measure_backlight(&inputs, &BacklightOptions::default()) {
+        let m = match measure_backlight(inputs, &BacklightOptions::default()) {
             Ok(m) => m,
             Err(why) => {
                 println!("{name:14} {why}");
                 continue;
             }
         };
-        let truth = |p: Param| -> Result<Vec<f32>, Box<dyn std::error::Error>> {
-            Ok(bundle
-                .truth_param(&inputs.reference, p)?
-                .ok_or("no truth")?
-                .flat()
-                .0
-                .to_vec())
-        };
+        let truth = |p: Param| opened.truth(p);
         let (t, b, ss, mt) = (
             truth(Param::Transmission)?,
             truth(Param::Basecolor)?,
@@ -100,11 +88,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
         // Global share of the projector's uniform light and backlight share
         // per class: t only, ss only, both, neither (dielectrics).
-        if let Ok(g) = matscan_estimate::fit::separation::global_light(
-            &bundle,
-            &calibration,
-            &inputs.reference,
-        )? {
+        if let Ok(g) =
+            matscan_estimate::fit::separation::global_light(bundle, calibration, &inputs.reference)?
+        {
             if let Some(uv) = inputs
                 .views
                 .iter()

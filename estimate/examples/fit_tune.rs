@@ -8,11 +8,8 @@
 //!   cargo run --release -p matscan-estimate --example fit_tune -- DIR [--quiet]
 //!       [--basecolor-pull P] [--saturation S] [--direct]
 
-use matscan_calib::{calibrate_bundle, CalibOptions};
 use matscan_estimate::fit::{fit_scene, FitLight, FitOptions, Known};
-use matscan_estimate::pipeline::inputs::SceneInputs;
-use matscan_estimate::pipeline::views::{select_views, ViewFilter};
-use matscan_scan::{Bundle, Param};
+use matscan_scan::Param;
 use std::path::Path;
 
 mod support;
@@ -42,18 +39,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     let mut table: Vec<(String, [f64; 3], f64)> = Vec::new();
     for scan in &list {
-        let bundle = Bundle::open(scan)?;
-        let calibration = calibrate_bundle(&bundle, &CalibOptions::default())?;
-        let set = select_views(&bundle.manifest, &calibration, &ViewFilter::default())?;
-        let inputs = SceneInputs::assemble(&bundle, &calibration, &set)?;
-        let truth = |k: Param| -> Result<Vec<f32>, Box<dyn std::error::Error>> {
-            Ok(bundle
-                .truth_param(&inputs.reference, k)?
-                .ok_or("no truth")?
-                .flat()
-                .0
-                .to_vec())
-        };
+        let opened = support::open(scan)?;
+        let (bundle, calibration, inputs) = (&opened.bundle, &opened.calibration, &opened.inputs);
+        let truth = |k: Param| opened.truth(k);
         let (bc, r, m, t) = (
             truth(Param::Basecolor)?,
             truth(Param::Roughness)?,
@@ -61,9 +49,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             truth(Param::Transmission)?,
         );
         let fitted = fit_scene(
-            &bundle,
-            &calibration,
-            &inputs,
+            bundle,
+            calibration,
+            inputs,
             &t,
             Known::default(),
             None,

@@ -10,31 +10,23 @@
 //!   cargo run --release -p matscan-estimate --example glow_probe -- DIR
 
 use matscan_calib::photos::{luma, quantile};
-use matscan_calib::{calibrate_bundle, CalibOptions};
-use matscan_estimate::pipeline::inputs::SceneInputs;
-use matscan_estimate::pipeline::views::{select_views, ViewFilter};
 use matscan_estimate::refine::observe::calibrated_lighting;
-use matscan_scan::{Bundle, Param};
+use matscan_scan::Param;
 use std::path::Path;
 
-fn main() -> Result<(), Box<dyn std::error::Error>> {
+mod support;
+
+fn main() -> Result<(), support::Error> {
     let args: Vec<String> = std::env::args().collect();
     let root = Path::new(args.get(1).ok_or("usage: glow_probe DIR")?);
     println!("scan | subsurface | transmission | per view: dark/lit ratio (dark px)");
     for dir in matscan_scan::bundle::find_bundles(root)? {
-        let bundle = Bundle::open(&dir)?;
-        let calibration = calibrate_bundle(&bundle, &CalibOptions::default())?;
-        let set = select_views(&bundle.manifest, &calibration, &ViewFilter::default())?;
-        let inputs = SceneInputs::assemble(&bundle, &calibration, &set)?;
-        let truth = |k: Param| -> Result<Vec<f32>, Box<dyn std::error::Error>> {
-            Ok(bundle
-                .truth_param(&inputs.reference, k)?
-                .ok_or("no truth")?
-                .flat()
-                .0
-                .to_vec())
-        };
-        let (ss, tr) = (truth(Param::Subsurface)?, truth(Param::Transmission)?);
+        let scan = support::open(&dir)?;
+        let (bundle, calibration, inputs) = (&scan.bundle, &scan.calibration, &scan.inputs);
+        let (ss, tr) = (
+            scan.truth(Param::Subsurface)?,
+            scan.truth(Param::Transmission)?,
+        );
         let mask = &inputs.mask.data;
         let median = |v: &[f32]| {
             let mut s: Vec<f32> = v
@@ -53,7 +45,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         );
         for planes in &inputs.views {
             let Some(l) =
-                calibrated_lighting(&bundle, &calibration, &inputs.reference, planes, 0.99)?
+                calibrated_lighting(bundle, calibration, &inputs.reference, planes, 0.99)?
             else {
                 continue;
             };

@@ -166,38 +166,45 @@ fn pixels_without_observations_take_the_fallback_and_are_not_counted_as_pinned()
     assert_eq!(fitted.notes.len(), 1, "{:?}", fitted.notes);
 }
 
-#[test]
-fn a_material_seen_from_one_angle_only_leaves_roughness_to_the_fallback() {
-    // Every pixel sees the same single view away from the highlight: any
-    // roughness explains it with its own basecolor, so the cost over
-    // roughness is flat.
-    let n = 64;
-    let mask = vec![true; n];
+/// The fit of the pixels of a glossy dielectric of `basecolor`, each seen
+/// in one view far from its highlight, with the networks' roughness and
+/// metallic as the fallback (basecolor black).
+fn fit_one_view_away(basecolor: [f32; 3], roughness: &[f32], metallic: &[f32]) -> Fitted {
+    let n = roughness.len();
     let truth = Params {
-        basecolor: [0.5, 0.5, 0.5],
+        basecolor,
         roughness: 0.1,
         metallic: 0.0,
     };
     let b = bsdf(&truth.to_x(), &Fixed::default());
-    let observe = |_: usize| -> Vec<Sample> {
+    let observe = |_: usize| {
         let wo = Vec3::new(0.3f32.sin(), 0.0, 0.3f32.cos());
         let wi = Vec3::new(-(1.2f32).sin(), 0.0, 1.2f32.cos());
         vec![Sample::exact(Observation::rendered(&b, wo, wi, [1.0; 3]))]
     };
-    let fallback_r = vec![0.33; n];
-    let fitted = fit_pixels(
-        &mask,
+    fit_pixels(
+        &vec![true; n],
         8,
         observe,
         &vec![0.0; n],
         Known::default(),
         Some(Fallback {
             basecolor: &vec![[0.0; 3]; n],
-            roughness: &fallback_r,
-            metallic: &vec![0.0; n],
+            roughness,
+            metallic,
         }),
         &FitOptions::default(),
-    );
+    )
+}
+
+#[test]
+fn a_material_seen_from_one_angle_only_leaves_roughness_to_the_fallback() {
+    // Every pixel sees the same single view away from the highlight: any
+    // roughness explains it with its own basecolor, so the cost over
+    // roughness is flat.
+    let n = 64;
+    let fallback_r = vec![0.33; n];
+    let fitted = fit_one_view_away([0.5; 3], &fallback_r, &vec![0.0; n]);
     assert_eq!(fitted.materials.len(), 1, "{:?}", fitted.materials);
     assert!(
         !fitted.materials[0].roughness_pinned,
@@ -215,32 +222,8 @@ fn a_material_whose_metallic_the_photos_leave_open_keeps_the_networks_per_pixel_
     // networks' answer stays pixel by pixel (metal and dielectric may
     // alternate within one colour), not one call from its median.
     let n = 64;
-    let mask = vec![true; n];
-    let truth = Params {
-        basecolor: [0.0; 3],
-        roughness: 0.1,
-        metallic: 0.0,
-    };
-    let b = bsdf(&truth.to_x(), &Fixed::default());
-    let observe = |_: usize| -> Vec<Sample> {
-        let wo = Vec3::new(0.3f32.sin(), 0.0, 0.3f32.cos());
-        let wi = Vec3::new(-(1.2f32).sin(), 0.0, 1.2f32.cos());
-        vec![Sample::exact(Observation::rendered(&b, wo, wi, [1.0; 3]))]
-    };
     let network_metallic: Vec<f32> = (0..n).map(|i| if i % 3 == 0 { 0.9 } else { 0.1 }).collect();
-    let fitted = fit_pixels(
-        &mask,
-        8,
-        observe,
-        &vec![0.0; n],
-        Known::default(),
-        Some(Fallback {
-            basecolor: &vec![[0.0; 3]; n],
-            roughness: &vec![0.5; n],
-            metallic: &network_metallic,
-        }),
-        &FitOptions::default(),
-    );
+    let fitted = fit_one_view_away([0.0; 3], &vec![0.5; n], &network_metallic);
     assert_eq!(fitted.materials.len(), 1, "{:?}", fitted.materials);
     assert!(
         !fitted.materials[0].metallic_pinned,
