@@ -36,7 +36,9 @@
 //! [`SURFACE_ONLY_SHARE`]), metallic when one choice explains the photos clearly better,
 //! a pixel's basecolor when at least one observation counted. Where a
 //! [`Fallback`] is given (the networks' answer), unpinned values come
-//! from it.
+//! from it: a material's roughness as its median over the material,
+//! metallic pixel by pixel (metal and dielectric may alternate within one
+//! colour).
 //!
 //! Transmission enters as a fixed input (the caller's map, 0 where the
 //! backlight shows no light passing); subsurface is rendered as Burley
