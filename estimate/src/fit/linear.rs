@@ -273,14 +273,9 @@ pub fn solve_pulled(
     }
 }
 
-/// Each sample's robust cost at basecolor `x` (summed over channels,
-/// weighted by its trust).
-pub fn sample_costs(
-    samples: &[Sample],
-    responses: &[Response],
-    x: [f32; 3],
-    noise: &Noise,
-) -> Vec<f64> {
+/// The robust cost of `samples` at basecolor `x`, as [`solve`] sums it
+/// at its answer (each sample weighted by its trust).
+pub fn cost_at(samples: &[Sample], responses: &[Response], x: [f32; 3], noise: &Noise) -> f64 {
     samples
         .iter()
         .zip(responses)
@@ -291,9 +286,9 @@ pub fn sample_costs(
             }
             (0..3)
                 .map(|c| w * huber(residual(s, p, c, f64::from(x[c]), noise), noise.huber_k).0)
-                .sum()
+                .sum::<f64>()
         })
-        .collect()
+        .sum()
 }
 
 /// The least-squares weight `w / σ²` of channel `c` (0: not counted).

@@ -18,7 +18,7 @@
 //! Boundaries: costs of the samples it is given; which materials it reads
 //! and what their answer becomes is the fit's ([`super::fit_pixels`]).
 
-use super::linear::{responses, sample_costs, Noise, Sample};
+use super::linear::{cost_at, responses, Noise, Sample};
 use crate::refine::model::Fixed;
 
 /// Which views count as looking into the lobe, and how many pixels must
@@ -43,21 +43,17 @@ impl Default for LobeOptions {
     }
 }
 
-/// Which of `samples` look into the surface lobe: the half-vector of
-/// view and light within the cone around the normal.
-pub fn near_mirror(samples: &[Sample], cone_cos: f32) -> Vec<bool> {
-    samples
-        .iter()
-        .map(|s| {
-            let h = (s.observation.wo + s.observation.wi).normalize_or_zero();
-            h.z.is_finite() && h.z >= cone_cos && s.observation.weight > 0.0
-        })
-        .collect()
+/// Whether `sample` looks into the surface lobe: a trusted view whose
+/// half-vector of view and light lies within the cone around the normal.
+fn looks_into_lobe(sample: &Sample, cone_cos: f32) -> bool {
+    let o = &sample.observation;
+    let h = (o.wo + o.wi).normalize_or_zero();
+    h.z.is_finite() && h.z >= cone_cos && o.weight > 0.0
 }
 
 /// One pixel's cost at each roughness of `grid` as a dielectric, counted
 /// over its views near the mirror direction only, each at the basecolor
-/// its views solved at that roughness (`basecolor[k]` for `grid[k]`).
+/// all its views solved at that roughness (`basecolor[k]` for `grid[k]`).
 /// `None` where no view looks into the lobe.
 pub fn highlight_costs(
     samples: &[Sample],
@@ -67,24 +63,19 @@ pub fn highlight_costs(
     noise: &Noise,
     cone_cos: f32,
 ) -> Option<Vec<f64>> {
-    let near = near_mirror(samples, cone_cos);
-    if !near.iter().any(|&n| n) || basecolor.len() < grid.len() {
+    // Only the near views' responses are needed: the basecolor is given.
+    let near: Vec<Sample> = samples
+        .iter()
+        .filter(|s| looks_into_lobe(s, cone_cos))
+        .copied()
+        .collect();
+    if near.is_empty() || basecolor.len() < grid.len() {
         return None;
     }
-    // Only the near views' responses are needed: the basecolor is given.
-    let chosen: Vec<Sample> = samples
-        .iter()
-        .zip(&near)
-        .filter(|(_, &n)| n)
-        .map(|(s, _)| *s)
-        .collect();
     Some(
         grid.iter()
             .zip(basecolor)
-            .map(|(&r, &x)| {
-                let p = responses(&chosen, r, 0.0, fixed);
-                sample_costs(&chosen, &p, x, noise).iter().sum()
-            })
+            .map(|(&r, &x)| cost_at(&near, &responses(&near, r, 0.0, fixed), x, noise))
             .collect(),
     )
 }
@@ -97,13 +88,12 @@ pub fn pinned(row: &[f64], grid: &[f32], contrast: f64) -> Option<f32> {
     if k == 0 || k + 1 >= row.len().min(grid.len()) {
         return None;
     }
-    let best = row[k];
     let worst = row
         .iter()
         .copied()
         .filter(|c| c.is_finite())
         .fold(0.0f64, f64::max);
-    (worst > best * (1.0 + contrast) + 1e-9).then(|| super::parabola_minimum(row, grid, k))
+    super::clearly_worse(worst, row[k], contrast).then(|| super::parabola_minimum(row, grid, k))
 }
 
 #[cfg(test)]

@@ -899,7 +899,8 @@ where
             && material.metallic < 0.5
             && known.roughness.is_none();
         if let (true, Some(direct), Some(lobe)) = (unread, direct.as_ref(), options.lobe) {
-            let rows: Vec<Vec<f64>> = list
+            // Each pixel with a view into the lobe adds its row and counts.
+            let (summed, seen) = list
                 .par_iter()
                 .filter_map(|&i| {
                     let (volume, opaque) = match recosted.get(&i) {
@@ -915,16 +916,16 @@ where
                         lobe.cone_cos,
                     )
                 })
-                .collect();
-            if rows.len() >= lobe.min_pixels {
-                let mut summed = vec![0.0f64; grid.len()];
-                for row in &rows {
-                    summed.iter_mut().zip(row).for_each(|(t, c)| *t += c);
-                }
+                .map(|row| (row, 1usize))
+                .reduce(
+                    || (vec![0.0f64; grid.len()], 0),
+                    |(a, n), (b, m)| (a.iter().zip(&b).map(|(x, y)| x + y).collect(), n + m),
+                );
+            if seen >= lobe.min_pixels {
                 if let Some(r) = lobe::pinned(&summed, &grid, options.roughness_contrast) {
                     material.roughness = r;
                     material.roughness_pinned = true;
-                    material.lobe_pixels = Some(rows.len());
+                    material.lobe_pixels = Some(seen);
                 }
             }
         }
@@ -1247,6 +1248,12 @@ fn half_angle_step(planes: &ViewPlanes, width: usize, i: usize) -> f32 {
     step
 }
 
+/// Whether the cost `worse` exceeds `best` by at least the fraction
+/// `contrast`: how the fit decides that the photos pinned a choice.
+fn clearly_worse(worse: f64, best: f64, contrast: f64) -> bool {
+    worse > best * (1.0 + contrast) + 1e-9
+}
+
 /// The index of the smallest finite value.
 fn argmin(v: &[f64]) -> Option<usize> {
     v.iter()
@@ -1308,11 +1315,11 @@ fn choose(
     let at_edge = k + 1 >= r;
     let explained = !at_edge || (m == 0 && evidence.surface_only);
     let metallic_pinned = known_metallic.is_some()
-        || ((!at_edge || m == 0) && other > best * (1.0 + options.metallic_contrast) + 1e-9);
+        || ((!at_edge || m == 0) && clearly_worse(other, best, options.metallic_contrast));
     let row = row_of(m);
     let worst = row.iter().copied().fold(0.0f64, f64::max);
     let roughness_pinned = known_roughness.is_some()
-        || (explained && worst > best * (1.0 + options.roughness_contrast) + 1e-9);
+        || (explained && clearly_worse(worst, best, options.roughness_contrast));
     let roughness = known_roughness.unwrap_or_else(|| {
         if at_edge {
             edge_minimum(row, grid)
