@@ -38,7 +38,8 @@
 //! [`Fallback`] is given (the networks' answer), unpinned values come
 //! from it: a material's roughness as its median over the material,
 //! metallic pixel by pixel (metal and dielectric may alternate within one
-//! colour).
+//! colour) wherever the pixel's neighbourhood does not call it clearly
+//! ([`neighbourhood`]).
 //!
 //! Transmission enters as a fixed input (the caller's map, 0 where the
 //! backlight shows no light passing); subsurface is rendered as Burley
@@ -52,6 +53,7 @@ pub mod highlight;
 pub mod linear;
 pub mod lobe;
 pub mod materials;
+pub mod neighbourhood;
 pub mod separation;
 
 use crate::pipeline::inputs::{SceneInputs, ViewPlanes};
@@ -70,6 +72,7 @@ use materials::{feature, split, Feature, Split, SplitOptions};
 use matscan_calib::photos::quantile;
 use matscan_calib::ScanCalibration;
 use matscan_scan::{Bundle, Param};
+use neighbourhood::NeighbourhoodOptions;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::collections::hash_map::{Entry, HashMap};
@@ -121,6 +124,10 @@ pub struct FitOptions {
     /// How a scattering material's roughness is read from its highlights
     /// ([`lobe`]); `None` leaves such a material to its total light's fit.
     pub lobe: Option<LobeOptions>,
+    /// How a pixel of a material whose photos pin no metallic takes its
+    /// metallic from its neighbourhood ([`neighbourhood`]); `None` leaves
+    /// every such pixel to the fallback.
+    pub neighbourhood: Option<NeighbourhoodOptions>,
 }
 
 /// Which part of the photos' light the surface BSDF is fitted to.
@@ -239,6 +246,7 @@ impl Default for FitOptions {
             backlight: Some(BacklightOptions::default()),
             highlight: HighlightOptions::default(),
             lobe: Some(LobeOptions::default()),
+            neighbourhood: Some(NeighbourhoodOptions::default()),
         }
     }
 }
@@ -309,6 +317,10 @@ pub struct MaterialFit {
     /// direction pinned ([`lobe`]): how many of its pixels had such a view.
     #[serde(default)]
     pub lobe_pixels: Option<usize>,
+    /// A material whose photos pinned no metallic: how many of its pixels
+    /// took metallic from their neighbourhood's photos ([`neighbourhood`]).
+    #[serde(default)]
+    pub neighbourhood_pixels: Option<usize>,
 }
 
 impl MaterialFit {
@@ -958,6 +970,29 @@ where
         }
     };
 
+    // Where a material's photos pin no metallic, a pixel's neighbourhood
+    // may.
+    let local_metallic: Vec<Option<f32>> = match options.neighbourhood {
+        Some(o) if known.metallic.is_none() => {
+            let open = |i: usize| parts.labels[i].is_some_and(|j| !materials[j].metallic_pinned);
+            let rows: Vec<Option<&[f64]>> = (0..n)
+                .map(|i| {
+                    volumes[i]
+                        .as_ref()
+                        .filter(|_| open(i))
+                        .map(|v| v.cost.as_slice())
+                })
+                .collect();
+            let sums = neighbourhood::window_sums(&rows, width, points, o.radius);
+            (0..n)
+                .map(|i| {
+                    let summed = sums[i].as_deref().filter(|_| open(i))?;
+                    neighbourhood::call(summed, grid.len(), o.contrast)
+                })
+                .collect()
+        }
+        _ => vec![None; n],
+    };
     // Basecolor per pixel at its material's roughness and metallic, first
     // from its own photos alone; then pulled toward its material's
     // information-weighted mean, which decides only where the photos say
@@ -1065,15 +1100,16 @@ where
                 // stays per pixel: metal and dielectric can alternate
                 // within one colour, which one call from their median
                 // would throw away (multimat).
-                out.metallic[i] = match fallback {
-                    Some(f) if !materials[j].metallic_pinned => {
+                out.metallic[i] = match (local_metallic[i], fallback) {
+                    (Some(v), _) => v,
+                    (None, Some(f)) if !materials[j].metallic_pinned => {
                         f.metallic.get(i).copied().unwrap_or(m)
                     }
                     _ => m,
                 };
                 bc += 1;
                 rough += usize::from(materials[j].roughness_pinned);
-                metal += usize::from(materials[j].metallic_pinned);
+                metal += usize::from(materials[j].metallic_pinned || local_metallic[i].is_some());
                 for (sum, v) in sums[j].0.iter_mut().zip(b) {
                     *sum += f64::from(v);
                 }
@@ -1118,6 +1154,11 @@ where
                 "basecolor 0.5, roughness 0.5, dielectric there"
             }
         ));
+    }
+    for (call, label) in local_metallic.iter().zip(&parts.labels) {
+        if let (Some(_), Some(j)) = (call, label) {
+            *materials[*j].neighbourhood_pixels.get_or_insert(0) += 1;
+        }
     }
     out.materials = materials;
     out.seconds = t.elapsed().as_secs_f64();
@@ -1354,6 +1395,7 @@ fn choose(
         transmission: None,
         highlight: None,
         lobe_pixels: None,
+        neighbourhood_pixels: None,
     }
 }
 

@@ -235,6 +235,104 @@ fn a_material_whose_metallic_the_photos_leave_open_keeps_the_networks_per_pixel_
 }
 
 #[test]
+fn where_a_material_leaves_metallic_open_each_neighbourhood_calls_its_own() {
+    // One material (given) of gold's colour, metal on the left half of
+    // the dome and dielectric on the right: metallic as a map of its own,
+    // not the colour's. A material contrast no sum can meet leaves its
+    // call open, and the networks say 0.5 everywhere.
+    let side = 48;
+    let gold_dielectric = Params {
+        metallic: 0.0,
+        ..GOLD
+    };
+    let truth = |i: usize| {
+        if (i % side) < side / 2 {
+            GOLD
+        } else {
+            gold_dielectric
+        }
+    };
+    let mask: Vec<bool> = (0..side * side)
+        .map(|i| normal(i, side).is_some())
+        .collect();
+    let n = side * side;
+    let labels: Vec<Option<usize>> = mask.iter().map(|&m| m.then_some(0)).collect();
+    let fitted = fit_pixels(
+        &mask,
+        side,
+        |i| observe(i, side, &truth),
+        &vec![0.0; n],
+        Known {
+            labels: Some(&labels),
+            ..Known::default()
+        },
+        Some(Fallback {
+            basecolor: &vec![[0.5; 3]; n],
+            roughness: &vec![0.5; n],
+            metallic: &vec![0.5; n],
+        }),
+        &FitOptions {
+            metallic_contrast: 1e6,
+            ..FitOptions::default()
+        },
+    );
+    assert!(!fitted.materials[0].metallic_pinned);
+    // Pixels whose 5 x 5 window lies inside one half.
+    let interior: Vec<usize> = (0..n)
+        .filter(|&i| mask[i] && (i % side + 2 < side / 2 || i % side >= side / 2 + 2))
+        .collect();
+    let called: Vec<usize> = interior
+        .iter()
+        .copied()
+        .filter(|&i| fitted.metallic[i] != 0.5)
+        .collect();
+    let right = called
+        .iter()
+        .filter(|&&i| fitted.metallic[i] == truth(i).metallic)
+        .count();
+    assert!(
+        called.len() as f64 > 0.9 * interior.len() as f64,
+        "{} of {} interior pixels called",
+        called.len(),
+        interior.len()
+    );
+    assert_eq!(
+        right,
+        called.len(),
+        "{right} of {} calls right",
+        called.len()
+    );
+    let counted = fitted.materials[0].neighbourhood_pixels.unwrap_or(0);
+    assert!(counted >= called.len(), "{counted}");
+    let object = mask.iter().filter(|&&m| m).count() as f32;
+    assert!((fitted.constrained.metallic - counted as f32 / object).abs() < 1e-6);
+
+    // Without the neighbourhood every pixel keeps the networks' 0.5.
+    let open = fit_pixels(
+        &mask,
+        side,
+        |i| observe(i, side, &truth),
+        &vec![0.0; n],
+        Known {
+            labels: Some(&labels),
+            ..Known::default()
+        },
+        Some(Fallback {
+            basecolor: &vec![[0.5; 3]; n],
+            roughness: &vec![0.5; n],
+            metallic: &vec![0.5; n],
+        }),
+        &FitOptions {
+            metallic_contrast: 1e6,
+            neighbourhood: None,
+            ..FitOptions::default()
+        },
+    );
+    assert!((0..n).filter(|&i| mask[i]).all(|i| open.metallic[i] == 0.5));
+    assert_eq!(open.materials[0].neighbourhood_pixels, None);
+}
+
+#[test]
 fn the_parabola_finds_a_minimum_between_grid_points() {
     let grid = roughness_grid();
     let target = 0.3f64.ln();
@@ -411,6 +509,7 @@ fn pinned_roughness_replaces_only_the_pixels_of_materials_that_pinned_it() {
         transmission: None,
         highlight: None,
         lobe_pixels: None,
+        neighbourhood_pixels: None,
     };
     let fitted = Fitted {
         basecolor: vec![[0.5; 3]; 4],
@@ -494,6 +593,7 @@ fn dielectric_basecolor_replaces_only_the_pixels_of_opaque_dielectric_materials(
         transmission: None,
         highlight: None,
         lobe_pixels: None,
+        neighbourhood_pixels: None,
     };
     let fitted = Fitted {
         basecolor: vec![
@@ -892,6 +992,7 @@ fn transmission_and_subsurface_are_absent_only_where_the_photos_show_it() {
             transmission: None,
             highlight: None,
             lobe_pixels: None,
+            neighbourhood_pixels: None,
         };
     use backlight::Passage::{Blocked, Partly, Passes};
     // A blocked metal (both hidden in it); a blocked dielectric (neither);
@@ -1034,6 +1135,7 @@ fn a_metals_measured_highlight_colour_becomes_its_mean_over_the_networks_texture
         transmission: None,
         highlight,
         lobe_pixels: None,
+        neighbourhood_pixels: None,
     };
     let materials = vec![
         metal(Some(HighlightColour::Measured {

@@ -1,0 +1,211 @@
+//! Metallic per pixel where a material's photos pin none: each pixel's
+//! cost volume summed over a small square window around it.
+//!
+//! A material gathered by colour can hold metal and dielectric alike
+//! (multimat draws metallic as a map of its own): its summed volume then
+//! calls neither, and one pixel's few views rarely do. A neighbourhood
+//! mostly lies inside one region of the metallic map, and together its
+//! pixels hold enough views near a highlight to tell a metal's coloured
+//! lobe from a dielectric's white one over its diffuse light. Only a
+//! clear call is taken (the other metallic's least summed cost at least
+//! `contrast` worse); a tie keeps the fallback's answer.
+//!
+//! Pinned materials are left alone: a window flips pixels of a uniform
+//! metal near its rim or its highlight's edge, which its material's whole
+//! sum decides better (docs/results.md, "metallic per neighbourhood").
+
+use super::clearly_worse;
+
+/// The window and how clear a call must be.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NeighbourhoodOptions {
+    /// Pixels either side of the centre: a (2 radius + 1)² window.
+    pub radius: usize,
+    /// A call is taken where the other metallic's least summed cost
+    /// exceeds the best by at least this fraction.
+    pub contrast: f64,
+}
+
+impl Default for NeighbourhoodOptions {
+    /// Chosen on all of `tune` (docs/results.md): a 5 x 5 window, the
+    /// other metallic at least 1.8 times the cost. Lower contrasts flip
+    /// pixels the networks had right; larger windows straddle the
+    /// metallic map's regions.
+    fn default() -> Self {
+        NeighbourhoodOptions {
+            radius: 2,
+            contrast: 0.8,
+        }
+    }
+}
+
+/// Sums of `rows` (each pixel's `len` costs; `None` where the pixel takes
+/// no part, and rows of another length or with a non-finite cost are left
+/// out) over the window around each pixel of a `width`-wide image; `None`
+/// where the window holds no row.
+pub fn window_sums(
+    rows: &[Option<&[f64]>],
+    width: usize,
+    len: usize,
+    radius: usize,
+) -> Vec<Option<Vec<f64>>> {
+    let n = rows.len();
+    if width == 0 || len == 0 || !n.is_multiple_of(width) {
+        return vec![None; n];
+    }
+    let height = n / width;
+    let mut flat = vec![0.0f64; n * len];
+    let mut count = vec![0u32; n];
+    for (i, row) in rows.iter().enumerate() {
+        if let Some(row) = row.filter(|r| r.len() == len && r.iter().all(|c| c.is_finite())) {
+            flat[i * len..(i + 1) * len].copy_from_slice(row);
+            count[i] = 1;
+        }
+    }
+    // The box is separable: along each image row, then along each column.
+    let (flat, count) = box_pass(&flat, &count, len, radius, height, width, |line, k| {
+        line * width + k
+    });
+    let (flat, count) = box_pass(&flat, &count, len, radius, width, height, |line, k| {
+        k * width + line
+    });
+    (0..n)
+        .map(|i| (count[i] > 0).then(|| flat[i * len..(i + 1) * len].to_vec()))
+        .collect()
+}
+
+/// One pass of the box along `lines` lines of `span` pixels; `at(line,
+/// k)` is the index of the `k`th pixel of a line.
+fn box_pass(
+    values: &[f64],
+    count: &[u32],
+    len: usize,
+    radius: usize,
+    lines: usize,
+    span: usize,
+    at: impl Fn(usize, usize) -> usize,
+) -> (Vec<f64>, Vec<u32>) {
+    let mut out = vec![0.0f64; values.len()];
+    let mut out_count = vec![0u32; count.len()];
+    for line in 0..lines {
+        for k in 0..span {
+            let o = at(line, k);
+            for q in k.saturating_sub(radius)..=(k + radius).min(span - 1) {
+                let s = at(line, q);
+                if count[s] == 0 {
+                    continue;
+                }
+                out_count[o] += count[s];
+                for c in 0..len {
+                    out[o * len + c] += values[s * len + c];
+                }
+            }
+        }
+    }
+    (out, out_count)
+}
+
+/// The metallic a summed volume calls (its dielectric row, then its metal
+/// row, `grid` costs each): 1 or 0 where the other is clearly worse,
+/// `None` where they tie or the volume is malformed. A metal whose best
+/// lobe is the grid's roughest is the degenerate call (a broad metal lobe
+/// imitating diffuse light) and is never taken.
+pub fn call(summed: &[f64], grid: usize, contrast: f64) -> Option<f32> {
+    if grid == 0 || summed.len() != 2 * grid {
+        return None;
+    }
+    let least = |row: &[f64]| {
+        row.iter()
+            .enumerate()
+            .filter(|(_, c)| c.is_finite())
+            .min_by(|a, b| a.1.total_cmp(b.1))
+            .map(|(k, c)| (k, *c))
+    };
+    let (_, dielectric) = least(&summed[..grid])?;
+    let (k, metal) = least(&summed[grid..])?;
+    if k + 1 < grid && clearly_worse(dielectric, metal, contrast) {
+        Some(1.0)
+    } else if clearly_worse(metal, dielectric, contrast) {
+        Some(0.0)
+    } else {
+        None
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn window_sums_add_every_row_within_the_radius_and_skip_the_absent() {
+        // 4 x 3 image, rows of two costs: pixel i holds [i, 10 i]; pixel 5
+        // takes no part and pixel 6 holds a NaN.
+        let owned: Vec<Vec<f64>> = (0..12).map(|i| vec![i as f64, 10.0 * i as f64]).collect();
+        let nan = [f64::NAN, 1.0];
+        let rows: Vec<Option<&[f64]>> = (0..12)
+            .map(|i| match i {
+                5 => None,
+                6 => Some(&nan[..]),
+                _ => Some(owned[i].as_slice()),
+            })
+            .collect();
+        let sums = window_sums(&rows, 4, 2, 1);
+        // Pixel 0's window: pixels 0, 1, 4 (5 absent).
+        assert_eq!(sums[0], Some(vec![5.0, 50.0]));
+        // Pixel 9's window: 4, 5, 6, 8, 9, 10 -> 4 + 8 + 9 + 10.
+        assert_eq!(sums[9], Some(vec![31.0, 310.0]));
+        // Radius 0 is the pixel itself; an absent pixel alone has no sum.
+        let own = window_sums(&rows, 4, 2, 0);
+        assert_eq!(own[3], Some(vec![3.0, 30.0]));
+        assert_eq!(own[5], None);
+        assert_eq!(own[6], None);
+    }
+
+    #[test]
+    fn window_sums_of_a_malformed_image_are_absent() {
+        let row = [1.0, 2.0];
+        let rows = vec![Some(&row[..]); 5];
+        assert!(window_sums(&rows, 2, 2, 1).iter().all(Option::is_none));
+        assert!(window_sums(&rows, 0, 2, 1).iter().all(Option::is_none));
+        // A row of the wrong length takes no part.
+        let short = [1.0];
+        let sums = window_sums(&[Some(&short[..])], 1, 2, 0);
+        assert_eq!(sums, vec![None]);
+    }
+
+    #[test]
+    fn a_clear_volume_calls_its_metallic_and_a_tie_calls_none() {
+        // Four roughnesses: least at k = 1 in both rows.
+        let volume = |dielectric: f64, metal: f64| {
+            vec![
+                dielectric + 5.0,
+                dielectric,
+                dielectric + 1.0,
+                dielectric + 3.0,
+                metal + 5.0,
+                metal,
+                metal + 1.0,
+                metal + 3.0,
+            ]
+        };
+        assert_eq!(call(&volume(20.0, 10.0), 4, 0.8), Some(1.0));
+        assert_eq!(call(&volume(10.0, 20.0), 4, 0.8), Some(0.0));
+        // 1.5 times is no clear call at contrast 0.8.
+        assert_eq!(call(&volume(15.0, 10.0), 4, 0.8), None);
+        assert_eq!(call(&volume(10.0, 10.0), 4, 0.0), None);
+    }
+
+    #[test]
+    fn a_metal_at_the_roughest_lobe_and_a_malformed_volume_call_nothing() {
+        // The metal row falls to its last (roughest) entry.
+        let falling = [9.0, 8.0, 7.0, 6.0, 9.0, 5.0, 3.0, 1.0];
+        assert_eq!(call(&falling, 4, 0.8), None);
+        assert_eq!(call(&falling[..7], 4, 0.8), None);
+        assert_eq!(call(&[], 0, 0.8), None);
+        let nan = [f64::NAN; 8];
+        assert_eq!(call(&nan, 4, 0.8), None);
+        // A dielectric at the roughest lobe is a rough surface: kept.
+        let rough = [9.0, 5.0, 3.0, 1.0, 30.0, 20.0, 25.0, 30.0];
+        assert_eq!(call(&rough, 4, 0.8), Some(0.0));
+    }
+}
