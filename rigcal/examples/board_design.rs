@@ -58,7 +58,7 @@ struct Errors {
     principal_px: f64,
 }
 
-const DESIGNS: [Design; 9] = [
+const DESIGNS: [Design; 12] = [
     design(
         "lean 25 deg about x, 9x6",
         8,
@@ -135,6 +135,33 @@ const DESIGNS: [Design; 9] = [
         "every camera near 45 deg, 13x9, second seat, each seat photographed 4 times",
         8,
         (10.0, 40.0),
+        None,
+        (13, 9),
+        4,
+        true,
+    ),
+    design(
+        "the same (seat, 4 frames), held boards tilted 20 to 50 deg",
+        8,
+        (20.0, 50.0),
+        None,
+        (13, 9),
+        4,
+        true,
+    ),
+    design(
+        "the same (seat, 4 frames), 12 shots tilted 20 to 50 deg",
+        12,
+        (20.0, 50.0),
+        None,
+        (13, 9),
+        4,
+        true,
+    ),
+    design(
+        "the same (seat, 4 frames), 16 shots tilted 20 to 50 deg",
+        16,
+        (20.0, 50.0),
         None,
         (13, 9),
         4,
