@@ -295,6 +295,7 @@ fn projector_points(
         pixels: Vec::new(),
         pose: 0,
         placement: None,
+        weight: 1.0,
     };
     for (corner, r) in corners.iter().zip(spacing) {
         let (x0, x1) = (

@@ -1,7 +1,9 @@
 //! Joint refinement (bundle adjustment): the camera's intrinsics and
 //! distortion, shared by every shot, and each shot's board pose, moved
 //! together to minimise the squared reprojection error of every corner, by
-//! Levenberg-Marquardt.
+//! Levenberg-Marquardt. Each shot's squared errors carry its weight, the
+//! inverse of its corners' noise variance ([`noise_weights`]), so that a
+//! noisy steep shot moves the camera less than an averaged resting one.
 //!
 //! Shots may share a pose: the photos of a board resting in place from one
 //! camera position all hang on that position's one pose, so each adds its
@@ -34,6 +36,10 @@ pub struct ShotPoints {
     /// Index of a pose that maps `board` into the frame `pose` maps first
     /// (a resting board's unknown placement), if any.
     pub placement: Option<usize>,
+    /// The weight of each of its squared residuals: the inverse of its
+    /// corners' noise variance, relative to the others' (1 where every
+    /// shot is alike; see [`noise_weights`]).
+    pub weight: f64,
 }
 
 /// The refined camera and poses, with the statistics the report needs.
@@ -98,11 +104,13 @@ impl Problem<'_> {
             .map(|shot| {
                 let pose = Self::pose(params, shot.pose);
                 let placement = shot.placement.map_or(&[][..], |k| Self::pose(params, k));
-                shot.board
-                    .iter()
-                    .zip(&shot.pixels)
-                    .map(|(&x, &p)| self.residual(intr, pose, placement, x, p).length_squared())
-                    .sum::<f64>()
+                shot.weight
+                    * shot
+                        .board
+                        .iter()
+                        .zip(&shot.pixels)
+                        .map(|(&x, &p)| self.residual(intr, pose, placement, x, p).length_squared())
+                        .sum::<f64>()
             })
             .sum()
     }
@@ -154,9 +162,9 @@ impl Problem<'_> {
                 }
                 for a in 0..used {
                     let ia = index(a);
-                    jtr[ia] += jac[a].dot(r);
+                    jtr[ia] += shot.weight * jac[a].dot(r);
                     for b in 0..=a {
-                        let v = jac[a].dot(jac[b]);
+                        let v = shot.weight * jac[a].dot(jac[b]);
                         let ib = index(b);
                         jtj[(ia, ib)] += v;
                         if ia != ib {
@@ -217,6 +225,68 @@ pub fn refine(
         sigma,
         iterations: solution.iterations,
     }
+}
+
+/// The most one shot's weight may differ from the pooled noise's, either
+/// way: a shot that happens to fit almost exactly must not outweigh the
+/// rest, nor a poor one vanish (the retake rule judges it).
+const MAX_WEIGHT_RATIO: f64 = 16.0;
+
+/// Each shot's weight from the residuals of a fit: the pooled noise
+/// variance over its own (each shot's squared residuals over their
+/// degrees of freedom: less its own pose's 6 where no other shot shares
+/// it), within [`MAX_WEIGHT_RATIO`] of 1. A photo averaged from several
+/// frames, or a board seen head-on, carries less noise per corner than a
+/// steep hand-held shot, and weighting each by its own noise is the
+/// maximum-likelihood fit where the noise differs per shot. Shots without
+/// corners, and a fit without residuals, keep weight 1.
+pub fn noise_weights(camera: &Intrinsics, poses: &[Pose], shots: &[ShotPoints]) -> Vec<f64> {
+    let mut sharing = vec![0usize; poses.len()];
+    for shot in shots {
+        if let Some(c) = sharing.get_mut(shot.pose) {
+            *c += 1;
+        }
+    }
+    let variances: Vec<Option<f64>> = shots
+        .iter()
+        .map(|shot| {
+            let pose = poses.get(shot.pose)?;
+            let placement = match shot.placement {
+                Some(k) => Some(poses.get(k)?),
+                None => None,
+            };
+            let squares: f64 = shot
+                .board
+                .iter()
+                .zip(&shot.pixels)
+                .map(|(&x, &p)| {
+                    let x = placement.map_or(x, |seat| seat.apply(x));
+                    (project(camera, pose, x) - p).length_squared()
+                })
+                .sum();
+            let own = shot.placement.is_none() && sharing[shot.pose] == 1;
+            let dof = (2 * shot.board.len()).saturating_sub(if own { POSE_COUNT } else { 0 });
+            (dof > 0 && squares.is_finite()).then(|| squares / dof as f64)
+        })
+        .collect();
+    let (sum, count) = variances
+        .iter()
+        .zip(shots)
+        .filter_map(|(v, s)| v.map(|v| (v * s.board.len() as f64, s.board.len())))
+        .fold((0.0, 0usize), |(a, n), (v, k)| (a + v, n + k));
+    if count == 0 || sum <= 0.0 {
+        return vec![1.0; shots.len()];
+    }
+    let pooled = sum / count as f64;
+    variances
+        .iter()
+        .map(|v| match v {
+            Some(v) => {
+                (pooled / v.max(f64::MIN_POSITIVE)).clamp(1.0 / MAX_WEIGHT_RATIO, MAX_WEIGHT_RATIO)
+            }
+            None => 1.0,
+        })
+        .collect()
 }
 
 /// A small dense least-squares problem by Levenberg-Marquardt: `residuals`

@@ -505,3 +505,99 @@ fn a_false_row_along_the_boards_outline_is_left_out_of_its_window() {
         crate::detect::best_window(&found, &BOARD, (4, 4 + BOARD.cols as i32 - 1), (-1, rows.1));
     assert_eq!(window, None);
 }
+
+/// Shots of the board at `poses`, each in its own pose, the corners of
+/// shot `k` jittered by up to `noise(k)` pixels.
+fn shot_points(
+    camera: &Intrinsics,
+    poses: &[Pose],
+    noise: impl Fn(usize) -> f64,
+) -> Vec<crate::refine::ShotPoints> {
+    // One jitter sequence over all shots (each its own draw), scaled per
+    // shot.
+    corners(camera, poses, 1.0)
+        .iter()
+        .zip(poses)
+        .enumerate()
+        .map(|(k, (shot, pose))| {
+            let board: Vec<DVec3> = shot.iter().map(|c| BOARD.corner(c.i, c.j)).collect();
+            let pixels = shot
+                .iter()
+                .zip(&board)
+                .map(|(c, &x)| {
+                    let exact = project(camera, pose, x);
+                    exact + (c.pixel - exact) * noise(k)
+                })
+                .collect();
+            crate::refine::ShotPoints {
+                board,
+                pixels,
+                pose: k,
+                placement: None,
+                weight: 1.0,
+            }
+        })
+        .collect()
+}
+
+#[test]
+fn each_shot_is_weighted_by_its_own_corners_noise() {
+    // Eight shots at 0.05 px and two at 0.2 px: four times the noise is
+    // sixteen times the variance.
+    let camera = true_camera();
+    let poses = poses(10, 30.0);
+    let noisy = |k: usize| if k == 3 || k == 7 { 0.2 } else { 0.05 };
+    let shots = shot_points(&camera, &poses, noisy);
+    let weights = crate::refine::noise_weights(&camera, &poses, &shots);
+    let clean = weights[0];
+    for (k, w) in weights.iter().enumerate() {
+        let ratio = clean / w;
+        if noisy(k) > 0.1 {
+            assert!((9.0..28.0).contains(&ratio), "shot {k}: {weights:?}");
+        } else {
+            assert!((0.7..1.4).contains(&ratio), "shot {k}: {weights:?}");
+        }
+    }
+    // The pooled noise sits between: clean shots weigh more than 1.
+    assert!(clean > 1.5 && clean <= 16.0, "{weights:?}");
+    // Exact corners cannot outweigh the rest without bound, and a fit
+    // without residuals leaves every weight at 1.
+    let mut mixed = shots.clone();
+    mixed[0].pixels = mixed[0]
+        .board
+        .iter()
+        .map(|&x| project(&camera, &poses[0], x))
+        .collect();
+    let w = crate::refine::noise_weights(&camera, &poses, &mixed);
+    assert!(
+        w[0] <= 16.0 && w.iter().all(|v| v.is_finite() && *v > 0.0),
+        "{w:?}"
+    );
+    let exact = shot_points(&camera, &poses, |_| 0.0);
+    let w = crate::refine::noise_weights(&camera, &poses, &exact);
+    assert!(w.iter().all(|&v| v == 1.0), "{w:?}");
+}
+
+#[test]
+fn weighting_by_noise_brings_the_focal_length_closer_than_equal_weights() {
+    // Two steep shots carry ten times the others' noise: weighted by it,
+    // the refinement trusts the clean ones.
+    let camera = true_camera();
+    let poses = poses(12, 35.0);
+    let noisy = |k: usize| if k % 4 == 1 { 0.5 } else { 0.05 };
+    let mut shots = shot_points(&camera, &poses, noisy);
+    let fixed = crate::refine::CAMERA_FIXED;
+    let equal = crate::refine::refine(&camera, &poses, &shots, fixed);
+    let weights = crate::refine::noise_weights(&equal.camera, &equal.poses, &shots);
+    for (s, w) in shots.iter_mut().zip(weights) {
+        s.weight = w;
+    }
+    let weighted = crate::refine::refine(&equal.camera, &equal.poses, &shots, fixed);
+    let error = |k: &Intrinsics| (k.fx / camera.fx - 1.0).abs() + (k.fy / camera.fy - 1.0).abs();
+    assert!(
+        error(&weighted.camera) < 0.5 * error(&equal.camera),
+        "weighted {} against equal {}",
+        error(&weighted.camera),
+        error(&equal.camera)
+    );
+}

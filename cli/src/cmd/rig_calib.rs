@@ -126,12 +126,13 @@ pub fn run_rig(a: RigArgs) -> Result<()> {
     );
     for s in &r.shots {
         println!(
-            "  {} {}: {} corners, RMS {:.3} px (max {:.3}), tilt {:.0} deg{}",
+            "  {} {}: {} corners, RMS {:.3} px (max {:.3}), weight {:.2}, tilt {:.0} deg{}",
             s.position,
             s.file.display(),
             s.corners,
             s.rms_px,
             s.max_px,
+            s.weight,
             s.tilt_deg,
             match (&s.seat, s.reference) {
                 (Some(seat), _) => format!(", on {seat}"),
