@@ -257,25 +257,29 @@ fn where_a_material_leaves_metallic_open_each_neighbourhood_calls_its_own() {
         .collect();
     let n = side * side;
     let labels: Vec<Option<usize>> = mask.iter().map(|&m| m.then_some(0)).collect();
-    let fitted = fit_pixels(
-        &mask,
-        side,
-        |i| observe(i, side, &truth),
-        &vec![0.0; n],
-        Known {
-            labels: Some(&labels),
-            ..Known::default()
-        },
-        Some(Fallback {
-            basecolor: &vec![[0.5; 3]; n],
-            roughness: &vec![0.5; n],
-            metallic: &vec![0.5; n],
-        }),
-        &FitOptions {
-            metallic_contrast: 1e6,
-            ..FitOptions::default()
-        },
-    );
+    let fit = |neighbourhood: Option<NeighbourhoodOptions>| {
+        fit_pixels(
+            &mask,
+            side,
+            |i| observe(i, side, &truth),
+            &vec![0.0; n],
+            Known {
+                labels: Some(&labels),
+                ..Known::default()
+            },
+            Some(Fallback {
+                basecolor: &vec![[0.5; 3]; n],
+                roughness: &vec![0.5; n],
+                metallic: &vec![0.5; n],
+            }),
+            &FitOptions {
+                metallic_contrast: 1e6,
+                neighbourhood,
+                ..FitOptions::default()
+            },
+        )
+    };
+    let fitted = fit(Some(NeighbourhoodOptions::default()));
     assert!(!fitted.materials[0].metallic_pinned);
     // Pixels whose 5 x 5 window lies inside one half.
     let interior: Vec<usize> = (0..n)
@@ -308,26 +312,7 @@ fn where_a_material_leaves_metallic_open_each_neighbourhood_calls_its_own() {
     assert!((fitted.constrained.metallic - counted as f32 / object).abs() < 1e-6);
 
     // Without the neighbourhood every pixel keeps the networks' 0.5.
-    let open = fit_pixels(
-        &mask,
-        side,
-        |i| observe(i, side, &truth),
-        &vec![0.0; n],
-        Known {
-            labels: Some(&labels),
-            ..Known::default()
-        },
-        Some(Fallback {
-            basecolor: &vec![[0.5; 3]; n],
-            roughness: &vec![0.5; n],
-            metallic: &vec![0.5; n],
-        }),
-        &FitOptions {
-            metallic_contrast: 1e6,
-            neighbourhood: None,
-            ..FitOptions::default()
-        },
-    );
+    let open = fit(None);
     assert!((0..n).filter(|&i| mask[i]).all(|i| open.metallic[i] == 0.5));
     assert_eq!(open.materials[0].neighbourhood_pixels, None);
 }
