@@ -1096,10 +1096,11 @@ where
             (Some((b, r, m)), Some(j)) => {
                 out.basecolor[i] = b;
                 out.roughness[i] = r;
-                // Where the photos pin no metallic, the networks' answer
-                // stays per pixel: metal and dielectric can alternate
-                // within one colour, which one call from their median
-                // would throw away (multimat).
+                // Where the material's photos pin no metallic, the answer
+                // stays per pixel (the neighbourhood's call, else the
+                // networks'): metal and dielectric can alternate within
+                // one colour, which one call from their median would
+                // throw away (multimat).
                 out.metallic[i] = match (local_metallic[i], fallback) {
                     (Some(v), _) => v,
                     (None, Some(f)) if !materials[j].metallic_pinned => {
