@@ -223,7 +223,7 @@ pub fn reference_placement(board: &Chessboard, rig: &Rig) -> DMat4 {
             .iter()
             .map(|p| {
                 let to_camera = p.camera_to_world.w_axis.truncate().normalize_or_zero();
-                (normal.dot(to_camera).abs().clamp(0.0, 1.0).acos() - target).abs()
+                (view_angle(normal, to_camera) - target).abs()
             })
             .fold(0.0, f64::max)
     };
@@ -405,14 +405,23 @@ pub fn held_pose(
         // it); a tilt and an off-axis place can add up to that on a
         // short-focus rig, and a person is told to keep it turned
         // towards the camera.
-        let normal = rotation * DVec3::Z;
-        let sight = board_to_camera.w_axis.truncate().normalize_or_zero();
-        let seen_deg = normal.dot(sight).abs().clamp(0.0, 1.0).acos().to_degrees();
-        if fits && lit && seen_deg <= MAX_HELD_VIEW_DEG {
+        let seen = view_angle(rotation * DVec3::Z, board_to_camera.w_axis.truncate());
+        if fits && lit && seen.to_degrees() <= MAX_HELD_VIEW_DEG {
             return Some(board_to_world);
         }
     }
     None
+}
+
+/// The angle between a board's `normal` and the line of `sight` between
+/// it and a camera, radians, whichever way either points (0 = head-on).
+pub fn view_angle(normal: DVec3, sight: DVec3) -> f64 {
+    normal
+        .normalize_or_zero()
+        .dot(sight.normalize_or_zero())
+        .abs()
+        .clamp(0.0, 1.0)
+        .acos()
 }
 
 /// The most a hand-held board is seen from head-on, degrees: inside the
@@ -757,10 +766,8 @@ mod tests {
                     let b2w = hand_held_pose(&mut rng, &board, &rig, p.camera_to_world, None)
                         .unwrap_or_else(|| panic!("rig {seed} {}: no pose", p.name));
                     let b2c = world_to_camera * b2w;
-                    let normal = b2c.transform_vector3(DVec3::Z).normalize();
-                    let sight = b2c.w_axis.truncate().normalize();
-                    let seen = normal.dot(sight).abs().min(1.0).acos().to_degrees();
-                    steepest = steepest.max(seen);
+                    let seen = view_angle(b2c.transform_vector3(DVec3::Z), b2c.w_axis.truncate());
+                    steepest = steepest.max(seen.to_degrees());
                 }
             }
             assert!(

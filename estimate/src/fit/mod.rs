@@ -972,8 +972,11 @@ where
 
     // Where a material's photos pin no metallic, a pixel's neighbourhood
     // may.
+    let any_open = materials.iter().any(|m| !m.metallic_pinned);
     let local_metallic: Vec<Option<f32>> = match options.neighbourhood {
-        Some(o) if known.metallic.is_none() => {
+        // The window's sums cost a pass over every pixel's volume: none
+        // where every material's metallic is pinned (most scans).
+        Some(o) if known.metallic.is_none() && any_open => {
             let open = |i: usize| parts.labels[i].is_some_and(|j| !materials[j].metallic_pinned);
             let rows: Vec<Option<&[f64]>> = (0..n)
                 .map(|i| {
