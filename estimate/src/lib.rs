@@ -14,7 +14,9 @@
 //!   training and the thesis's independent evaluation.
 //! - [`fit`]: the physical fit (`--method fit|hybrid`): basecolor,
 //!   roughness and metallic measured from the photos under the calibrated
-//!   lights, per material, with the share of the object the photos pinned.
+//!   lights, per material, with the share of the object the photos pinned;
+//!   transmission through the backlight and subsurface from renders of
+//!   the object under the flashes.
 //! - [`refine`]: optional per-pixel analysis-by-synthesis fit after the
 //!   networks (basecolor, roughness, metallic) with confidence maps.
 //! - `train` (feature `train`): the trainer of section 3.2.2 and its
@@ -22,9 +24,11 @@
 //!   neither.
 //!
 //! Boundaries: reads scans through `matscan-scan` and calibrates through
-//! `matscan-calib`; the forward model of the refinement is
-//! `matscan-bsdf`'s Principled BSDF, the renderer's own, without linking
-//! the renderer. Crate choices: burn (flex CPU backend by default, ndarray
+//! `matscan-calib`; the forward model of the fit and the refinement is
+//! `matscan-bsdf`'s Principled BSDF, the renderer's own. The renderer
+//! itself (`matscan-sim`) is linked for one measurement: how far light
+//! travels under a surface depends on the whole object's shape, so
+//! `fit::scattering` renders the scan's mesh with its random walk. Crate choices: burn (flex CPU backend by default, ndarray
 //! selectable, wgpu/Vulkan behind `vulkan`): one model definition for
 //! inference, training and every backend; `rayon` for per-pixel work.
 //!

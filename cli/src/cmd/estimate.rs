@@ -70,8 +70,11 @@ pub struct EstimateArgs {
     /// (fit-metallic, then the fit's roughness where the photos pin it) or
     /// fit-dielectric (the default: fit-specular, then the fit's basecolor
     /// on the materials it reads as opaque dielectrics).
-    /// Transmission and subsurface come from their networks under every
-    /// method.
+    /// Under every method but networks and hybrid, transmission and
+    /// subsurface are measured where the photos speak (0 on a material
+    /// they show lacks them, a clear material's transmission from the
+    /// backlight, a scattering material's subsurface from renders of the
+    /// object under the flashes); their networks answer elsewhere.
     #[arg(long, default_value_t = Method::default())]
     pub method: Method,
     /// Which light the physical fit explains: total (lit minus ambient as

@@ -43,10 +43,13 @@
 //!
 //! Transmission enters as a fixed input (the caller's map, 0 where the
 //! backlight shows no light passing); subsurface is rendered as Burley
-//! diffuse by the model, as in the refinement.
+//! diffuse by the model, as in the refinement. After the fit, the
+//! materials that scatter light inside get their subsurface measured by
+//! rendering the scan's object under the flashes ([`scattering`]).
 //!
-//! Boundaries: no file I/O and no networks; the pipeline hands in the
-//! scan's inputs and writes what comes back.
+//! Boundaries: no networks, and no file I/O beyond the bundle's manifest,
+//! global-light photos and mesh; the pipeline hands in the scan's inputs
+//! and writes what comes back.
 
 pub mod backlight;
 pub mod highlight;
@@ -54,6 +57,7 @@ pub mod linear;
 pub mod lobe;
 pub mod materials;
 pub mod neighbourhood;
+pub mod scattering;
 pub mod separation;
 
 use crate::pipeline::inputs::{SceneInputs, ViewPlanes};
@@ -74,6 +78,7 @@ use matscan_calib::ScanCalibration;
 use matscan_scan::{Bundle, Param};
 use neighbourhood::NeighbourhoodOptions;
 use rayon::prelude::*;
+use scattering::{FlashPhotos, ScatteringOptions, SubsurfaceFit};
 use serde::{Deserialize, Serialize};
 use std::collections::hash_map::{Entry, HashMap};
 use std::time::Instant;
@@ -128,6 +133,9 @@ pub struct FitOptions {
     /// metallic from its neighbourhood ([`neighbourhood`]); `None` leaves
     /// every such pixel to the fallback.
     pub neighbourhood: Option<NeighbourhoodOptions>,
+    /// How a scattering material's subsurface is measured by rendering the
+    /// scan's object ([`scattering`]); `None` leaves it to the networks.
+    pub scattering: Option<ScatteringOptions>,
 }
 
 /// Which part of the photos' light the surface BSDF is fitted to.
@@ -247,6 +255,7 @@ impl Default for FitOptions {
             highlight: HighlightOptions::default(),
             lobe: Some(LobeOptions::default()),
             neighbourhood: Some(NeighbourhoodOptions::default()),
+            scattering: Some(ScatteringOptions::default()),
         }
     }
 }
@@ -321,6 +330,11 @@ pub struct MaterialFit {
     /// took metallic from their neighbourhood's photos ([`neighbourhood`]).
     #[serde(default)]
     pub neighbourhood_pixels: Option<usize>,
+    /// A dielectric that scatters light inside: its subsurface as the
+    /// renders of the scan's object under the flashes measured it
+    /// ([`scattering`]), or why they could not.
+    #[serde(default)]
+    pub subsurface: Option<SubsurfaceFit>,
 }
 
 impl MaterialFit {
@@ -406,7 +420,8 @@ impl Fitted {
 impl Fitted {
     /// Writes into `map` of `kind` (transmission or subsurface) what the
     /// photos measured: 0 at the pixels of the materials they show lack it
-    /// ([`MaterialFit::lacks`]), a material's measured transmission,
+    /// ([`MaterialFit::lacks`]), a material's measured transmission or
+    /// subsurface,
     /// leaving every other pixel as it was; returns the share of the
     /// fitted pixels written.
     pub fn measured_into(&self, kind: Param, map: &mut [f32]) -> f32 {
@@ -416,8 +431,10 @@ impl Fitted {
                 continue;
             };
             fitted += 1;
-            let measured = match (kind, m.transmission) {
-                (Param::Transmission, Some(t)) => Some(t),
+            let subsurface = m.subsurface.as_ref().and_then(SubsurfaceFit::value);
+            let measured = match (kind, m.transmission, subsurface) {
+                (Param::Transmission, Some(t), _) => Some(t),
+                (Param::Subsurface, _, Some(s)) => Some(s),
                 _ => m.lacks(kind).then_some(0.0),
             };
             if let Some(value) = measured {
@@ -581,10 +598,112 @@ pub fn fit_scene(
         fallback,
         options,
     );
+    if let Some(o) = &options.scattering {
+        measure_subsurface(
+            bundle,
+            inputs,
+            &mut fitted,
+            transmission,
+            fallback,
+            o,
+            options.saturation,
+        )?;
+    }
     notes.append(&mut fitted.notes);
     fitted.notes = notes;
     fitted.seconds = t.elapsed().as_secs_f64();
     Ok(fitted)
+}
+
+/// The median transmission from which a material counts as clear for
+/// [`measure_subsurface`].
+pub const CLEAR_TRANSMISSION: f32 = 0.5;
+
+/// Whether [`scattering`] measures the material: a dielectric whose
+/// measured global share says it scatters light inside, with no
+/// transmission measured through it (a clear material's global light is
+/// the checker refracted, not scattered).
+fn scatters_inside(m: &MaterialFit) -> bool {
+    m.metallic < 0.5
+        && !m.lacks(Param::Subsurface)
+        && m.transmission.is_none()
+        && m.global_share
+            .is_some_and(|s| f64::from(s) >= SCATTERING_SHARE)
+}
+
+/// Measures the subsurface of the materials that scatter light inside
+/// ([`scatters_inside`]) and that `transmission` does not call clear,
+/// together, from the reference position's flash
+/// photos, with the basecolor the fallback gives them (its median over
+/// them; the fit's own where there is none, though a scattering material's
+/// surface fit reads dark) and their median fitted roughness.
+fn measure_subsurface(
+    bundle: &Bundle,
+    inputs: &SceneInputs,
+    fitted: &mut Fitted,
+    transmission: &[f32],
+    fallback: Option<Fallback<'_>>,
+    options: &ScatteringOptions,
+    saturation: f32,
+) -> Result<(), RefineError> {
+    // A material the transmission map (the networks' or the user's) calls
+    // clear shows the checker refracted, not scattered: its global share
+    // says nothing of how far light travels under its surface.
+    let clear = |j: usize| {
+        let mut t: Vec<f32> = (0..fitted.labels.len())
+            .filter(|&i| fitted.labels[i] == Some(j))
+            .filter_map(|i| transmission.get(i).copied())
+            .collect();
+        quantile(&mut t, 0.5).is_some_and(|t| t >= CLEAR_TRANSMISSION)
+    };
+    let chosen: Vec<usize> = (0..fitted.materials.len())
+        .filter(|&j| scatters_inside(&fitted.materials[j]) && !clear(j))
+        .collect();
+    if chosen.is_empty() {
+        return Ok(());
+    }
+    let photos = match FlashPhotos::new(bundle, inputs, options, saturation)? {
+        Ok(p) => p,
+        Err(reason) => {
+            for &j in &chosen {
+                fitted.materials[j].subsurface = Some(SubsurfaceFit::Blind {
+                    reason: reason.clone(),
+                });
+            }
+            return Ok(());
+        }
+    };
+    // The scattering materials are measured together: the fit's split
+    // cuts one scattering material into several by the texture its light
+    // shows, each often too small for a cell, and the render gives the
+    // whole object one material anyway.
+    let labels = &fitted.labels;
+    let member = |i: usize| labels[i].is_some_and(|j| chosen.contains(&j));
+    let cells = photos.cells_of(inputs.width, member);
+    let members: Vec<usize> = (0..labels.len()).filter(|&i| member(i)).collect();
+    let median = |value: &dyn Fn(usize, usize) -> f32| {
+        glam::Vec3::from_array(std::array::from_fn(|c| {
+            let mut v: Vec<f32> = members.iter().map(|&i| value(i, c)).collect();
+            quantile(&mut v, 0.5).unwrap_or(0.5)
+        }))
+    };
+    let basecolor = match fallback {
+        Some(f) => median(&|i, c| f.basecolor[i][c]),
+        None => median(&|i, c| fitted.basecolor[i][c]),
+    };
+    let roughness = median(&|i, _| fitted.roughness[i]).x;
+    let fit = scattering::measure(
+        &bundle.read_mesh()?,
+        &photos,
+        &cells,
+        basecolor,
+        roughness,
+        options,
+    );
+    for j in chosen {
+        fitted.materials[j].subsurface = Some(fit.clone());
+    }
+    Ok(())
 }
 
 /// Gives every calibrated view the global light its light puts on each
@@ -1400,6 +1519,7 @@ fn choose(
         highlight: None,
         lobe_pixels: None,
         neighbourhood_pixels: None,
+        subsurface: None,
     }
 }
 

@@ -495,6 +495,7 @@ fn pinned_roughness_replaces_only_the_pixels_of_materials_that_pinned_it() {
         highlight: None,
         lobe_pixels: None,
         neighbourhood_pixels: None,
+        subsurface: None,
     };
     let fitted = Fitted {
         basecolor: vec![[0.5; 3]; 4],
@@ -579,6 +580,7 @@ fn dielectric_basecolor_replaces_only_the_pixels_of_opaque_dielectric_materials(
         highlight: None,
         lobe_pixels: None,
         neighbourhood_pixels: None,
+        subsurface: None,
     };
     let fitted = Fitted {
         basecolor: vec![
@@ -978,6 +980,7 @@ fn transmission_and_subsurface_are_absent_only_where_the_photos_show_it() {
             highlight: None,
             lobe_pixels: None,
             neighbourhood_pixels: None,
+            subsurface: None,
         };
     use backlight::Passage::{Blocked, Partly, Passes};
     // A blocked metal (both hidden in it); a blocked dielectric (neither);
@@ -1121,6 +1124,7 @@ fn a_metals_measured_highlight_colour_becomes_its_mean_over_the_networks_texture
         highlight,
         lobe_pixels: None,
         neighbourhood_pixels: None,
+        subsurface: None,
     };
     let materials = vec![
         metal(Some(HighlightColour::Measured {

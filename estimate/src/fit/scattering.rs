@@ -1,0 +1,585 @@
+//! How far light travels under a material's surface (its subsurface),
+//! measured by rendering the scan's own object under the reference
+//! position's flashes.
+//!
+//! Why rendering, not a table: with the Principled radius of one scene
+//! unit, a subsurface of 0.2 already gives the random walk a mean free path
+//! of a third of an object (`matscan_bsdf::subsurface`), so light that
+//! enters on the lit side spreads through the whole object. Every measure
+//! that sums over the object (the checker's global share, the glow on the
+//! unlit side, the lit albedo) is then a property of the shape as much as
+//! of the material (docs/results.md, "how far light travels under the
+//! surface"). The shape is known, so it is put into the model: `sim`'s
+//! path tracer with its random walk renders the scan's mesh from the
+//! reference camera under each calibrated flash of the reference position,
+//! once per subsurface of [`GRID`], with the material's basecolor and
+//! fitted roughness over the whole object.
+//!
+//! What is compared is each flash's share of a cell's light,
+//! `p_v / Σ_u p_u`, photo against render. The share cancels the basecolor's
+//! texture and the light's overall scale (both multiply every flash alike),
+//! and it is what scattering changes: without it each flash lights its own
+//! side (the share follows N·L); with it light from either flash leaves
+//! everywhere and the shares flatten towards the flashes' ratio. The
+//! subsurface whose renders leave the least root-mean-square share
+//! difference, refined by a parabola through its grid neighbours, is the
+//! measurement. All candidates are rendered with the same random numbers,
+//! so that their differences are the material's and not the noise's.
+//!
+//! What limits it: the renders take the basecolor as given (the caller's:
+//! the networks' median), and a brighter basecolor carries light as far as
+//! a larger subsurface does (on `tune`, a basecolor 0.3 off moves the
+//! answer by about 0.1); the whole object is rendered with one material,
+//! so the fit measures every scattering material of a scan together and
+//! the materials around them are rendered as if they were them.
+//!
+//! Blind, with the reason recorded: fewer than two flash views with a
+//! calibrated intensity at the reference position, or fewer than
+//! [`ScatteringOptions::min_cells`] unclipped cells wholly of the
+//! material.
+
+use crate::pipeline::inputs::SceneInputs;
+use crate::refine::observe::clip_level;
+use glam::Vec3;
+use matscan_bsdf::material::{Material, DEFAULT_SUBSURFACE_RADIUS};
+use matscan_scan::camera::PinholeCamera;
+use matscan_scan::mesh::Mesh;
+use matscan_scan::{Bundle, LightKind};
+use matscan_sim::render::environment::Environment;
+use matscan_sim::render::integrator::{
+    MaterialMode, Pass, PassImages, PassKey, DEFAULT_CLAMP_INDIRECT,
+};
+use matscan_sim::render::lights::Flash;
+use matscan_sim::render::world::{ObjectGeometry, World};
+use matscan_sim::scene::model::{MaterialField, PointLight};
+use serde::{Deserialize, Serialize};
+
+/// The subsurface values rendered.
+pub const GRID: [f32; 8] = [0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.7, 1.0];
+
+/// How the measurement renders.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ScatteringOptions {
+    /// Cells across the reference image; the photos are averaged over
+    /// each cell and the renders made at this size.
+    pub cells: usize,
+    /// Path-tracing samples per cell.
+    pub samples: u32,
+    /// Fewest cells wholly of the material (and unclipped) to measure it.
+    pub min_cells: usize,
+    /// Seed of the renders' random numbers.
+    pub seed: u64,
+}
+
+impl Default for ScatteringOptions {
+    fn default() -> Self {
+        ScatteringOptions {
+            cells: 32,
+            samples: 128,
+            min_cells: 16,
+            seed: 7,
+        }
+    }
+}
+
+/// What the renders said of one material's subsurface.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "status", rename_all = "snake_case")]
+pub enum SubsurfaceFit {
+    Measured {
+        value: f32,
+        /// Root-mean-square difference of the flashes' shares at `value`'s
+        /// grid point.
+        residual: f64,
+        /// The same at no subsurface: how much better scattering explains
+        /// the photos.
+        residual_without: f64,
+        cells: usize,
+        /// Time the renders took, s.
+        seconds: f64,
+    },
+    Blind {
+        reason: String,
+    },
+}
+
+impl SubsurfaceFit {
+    /// The measured subsurface, if any.
+    pub fn value(&self) -> Option<f32> {
+        match self {
+            SubsurfaceFit::Measured { value, .. } => Some(*value),
+            SubsurfaceFit::Blind { .. } => None,
+        }
+    }
+}
+
+/// The reference position's flashes and their photos, averaged over cells.
+pub struct FlashPhotos {
+    /// Cells across and down.
+    pub size: (usize, usize),
+    /// Reference pixels per cell side.
+    pub factor: usize,
+    pub flashes: Vec<PointLight>,
+    /// Per flash, lit minus ambient luma per cell (NaN where a pixel
+    /// clipped).
+    pub luma: Vec<Vec<f64>>,
+    pub camera: PinholeCamera,
+}
+
+impl FlashPhotos {
+    /// The flash views of `inputs`' reference position, or why there are
+    /// not enough of them.
+    pub fn new(
+        bundle: &Bundle,
+        inputs: &SceneInputs,
+        options: &ScatteringOptions,
+        saturation: f32,
+    ) -> Result<Result<FlashPhotos, String>, matscan_scan::ScanError> {
+        let position = bundle.position(&inputs.reference)?;
+        let factor = (inputs.width / options.cells.max(1)).max(1);
+        let size = (inputs.width / factor, inputs.height / factor);
+        let (mut flashes, mut luma) = (Vec::new(), Vec::new());
+        for planes in inputs
+            .views
+            .iter()
+            .filter(|p| p.view.position == inputs.reference)
+        {
+            let Some(light) = position.light(&planes.view.light) else {
+                continue;
+            };
+            let (LightKind::Point { position: at }, Some(intensity)) =
+                (&light.kind, light.intensity)
+            else {
+                continue;
+            };
+            if !(intensity.is_finite() && intensity > 0.0) {
+                continue;
+            }
+            let clip = clip_level(planes, saturation);
+            let (lit, ambient) = (planes.lit(), planes.ambient());
+            let cells = (0..size.0 * size.1)
+                .map(|k| {
+                    let (cx, cy) = (k % size.0, k / size.0);
+                    let mut sum = 0.0f64;
+                    for j in 0..factor * factor {
+                        let i =
+                            (cy * factor + j / factor) * inputs.width + cx * factor + j % factor;
+                        // NaN counts as clipped.
+                        if (0..3).any(|c| lit[i][c].is_nan() || lit[i][c] >= clip[c]) {
+                            return f64::NAN;
+                        }
+                        sum += (0..3)
+                            .map(|c| f64::from(lit[i][c] - ambient[i][c]))
+                            .sum::<f64>();
+                    }
+                    sum / (factor * factor) as f64
+                })
+                .collect();
+            luma.push(cells);
+            flashes.push(PointLight {
+                name: light.name.clone(),
+                position: at.as_vec3(),
+                color: Vec3::from_array(light.color.map(|c| c as f32)),
+                intensity: intensity as f32,
+            });
+        }
+        if flashes.len() < 2 {
+            return Ok(Err(format!(
+                "{} flash view(s) with a calibrated intensity at {}: how far light travels \
+                 under the surface needs two",
+                flashes.len(),
+                inputs.reference
+            )));
+        }
+        let reference = bundle.camera(&inputs.reference)?;
+        let camera = PinholeCamera::new(
+            reference.intrinsics.scaled_to(size.0 as u32, size.1 as u32),
+            reference.camera_to_world,
+        );
+        Ok(Ok(FlashPhotos {
+            size,
+            factor,
+            flashes,
+            luma,
+            camera,
+        }))
+    }
+
+    /// The cells wholly inside `member` (per reference pixel) and
+    /// unclipped in every flash.
+    pub fn cells_of(&self, width: usize, member: impl Fn(usize) -> bool) -> Vec<usize> {
+        let f = self.factor;
+        (0..self.size.0 * self.size.1)
+            .filter(|&k| {
+                let (cx, cy) = (k % self.size.0, k / self.size.0);
+                self.luma.iter().all(|l| l[k].is_finite())
+                    && (0..f * f).all(|j| member((cy * f + j / f) * width + cx * f + j % f))
+            })
+            .collect()
+    }
+}
+
+/// The subsurface of a material covering `cells`, with `basecolor` and
+/// `roughness`, rendered on `mesh`.
+pub fn measure(
+    mesh: &Mesh,
+    photos: &FlashPhotos,
+    cells: &[usize],
+    basecolor: Vec3,
+    roughness: f32,
+    options: &ScatteringOptions,
+) -> SubsurfaceFit {
+    if cells.len() < options.min_cells.max(1) {
+        return SubsurfaceFit::Blind {
+            reason: format!(
+                "{} cell(s) of {}x{} reference pixels wholly of the material and unclipped \
+                 (at least {} needed)",
+                cells.len(),
+                photos.factor,
+                photos.factor,
+                options.min_cells
+            ),
+        };
+    }
+    if photos.flashes.len() < 2 {
+        return SubsurfaceFit::Blind {
+            reason: format!(
+                "{} flash(es): each flash's share of the light needs two",
+                photos.flashes.len()
+            ),
+        };
+    }
+    let t = std::time::Instant::now();
+    let object = ObjectGeometry::new(mesh);
+    let basecolor = if basecolor.is_finite() {
+        basecolor.clamp(Vec3::ZERO, Vec3::ONE)
+    } else {
+        Vec3::splat(0.5)
+    };
+    let roughness = if roughness.is_finite() {
+        roughness.clamp(0.0, 1.0)
+    } else {
+        0.5
+    };
+    let residuals: Vec<f64> = GRID
+        .iter()
+        .map(|&subsurface| {
+            let material = Material {
+                basecolor,
+                roughness,
+                metallic: 0.0,
+                transmission: 0.0,
+                subsurface,
+                subsurface_radius: DEFAULT_SUBSURFACE_RADIUS,
+            };
+            let rendered = render_luma(
+                &object,
+                photos.camera,
+                &photos.flashes,
+                &material,
+                options.samples,
+                options.seed,
+            );
+            share_residual(&photos.luma, &rendered, cells)
+        })
+        .collect();
+    let best = residuals
+        .iter()
+        .enumerate()
+        .filter(|(_, r)| r.is_finite())
+        .min_by(|a, b| a.1.total_cmp(b.1))
+        .map(|(g, _)| g);
+    let Some(best) = best else {
+        return SubsurfaceFit::Blind {
+            reason: "neither the photos nor the renders show flash light on the material"
+                .to_string(),
+        };
+    };
+    SubsurfaceFit::Measured {
+        value: refined(&GRID, &residuals, best),
+        residual: residuals[best],
+        residual_without: residuals[0],
+        cells: cells.len(),
+        seconds: t.elapsed().as_secs_f64(),
+    }
+}
+
+/// Per flash, the luma of `object` with `material` over all of it
+/// ([`render_flashes`]).
+pub fn render_luma(
+    object: &ObjectGeometry<'_>,
+    camera: PinholeCamera,
+    flashes: &[PointLight],
+    material: &Material,
+    samples: u32,
+    seed: u64,
+) -> Vec<Vec<f64>> {
+    render_flashes(object, camera, flashes, material, samples, seed)
+        .slots
+        .iter()
+        .map(|s| {
+            s.data
+                .iter()
+                .map(|v| v.iter().map(|&x| f64::from(x)).sum())
+                .collect()
+        })
+        .collect()
+}
+
+/// Per flash, the radiance of `object` with `material` over all of it,
+/// seen by `camera` and lit by that flash alone: one pass with one slot
+/// per flash, so the flashes share their paths.
+pub fn render_flashes(
+    object: &ObjectGeometry<'_>,
+    camera: PinholeCamera,
+    flashes: &[PointLight],
+    material: &Material,
+    samples: u32,
+    seed: u64,
+) -> PassImages {
+    let env = Environment::off();
+    let field = MaterialField::uniform(material);
+    let pass = Pass {
+        world: World::new(object, None),
+        camera,
+        env: &env,
+        env_slot: None,
+        flashes: flashes
+            .iter()
+            .enumerate()
+            .map(|(slot, light)| (Flash::new(light), slot))
+            .collect(),
+        projector: None,
+        backlight_slot: None,
+        materials: MaterialMode::Authored(&field),
+        slots: flashes.len(),
+        max_depth: 8,
+        clamp_indirect: DEFAULT_CLAMP_INDIRECT,
+    };
+    pass.render(
+        samples,
+        PassKey {
+            seed,
+            position: 0,
+            pass: 0,
+        },
+    )
+}
+
+/// Root-mean-square difference, over `cells` and flashes, of each flash's
+/// share of a cell's light in `photo` and in `render`; NaN where no cell
+/// has light in both.
+pub fn share_residual(photo: &[Vec<f64>], render: &[Vec<f64>], cells: &[usize]) -> f64 {
+    let (mut sum, mut n) = (0.0f64, 0usize);
+    for &k in cells {
+        let p: f64 = photo.iter().map(|l| l[k]).sum();
+        let r: f64 = render.iter().map(|l| l[k]).sum();
+        if !(p > 0.0 && r > 0.0 && p.is_finite() && r.is_finite()) {
+            continue;
+        }
+        for (pv, rv) in photo.iter().zip(render) {
+            sum += (pv[k] / p - rv[k] / r).powi(2);
+            n += 1;
+        }
+    }
+    if n == 0 {
+        f64::NAN
+    } else {
+        (sum / n as f64).sqrt()
+    }
+}
+
+/// The vertex of the parabola through `best` and its grid neighbours,
+/// kept between them; the grid point itself at the grid's ends or where
+/// the three do not bend upwards.
+pub fn refined(grid: &[f32], residuals: &[f64], best: usize) -> f32 {
+    if best == 0 || best + 1 >= grid.len() {
+        return grid[best];
+    }
+    let (x0, x1, x2) = (
+        f64::from(grid[best - 1]),
+        f64::from(grid[best]),
+        f64::from(grid[best + 1]),
+    );
+    let (y0, y1, y2) = (residuals[best - 1], residuals[best], residuals[best + 1]);
+    if !(y0.is_finite() && y2.is_finite()) {
+        return grid[best];
+    }
+    let denom = (x0 - x1) * (x0 - x2) * (x1 - x2);
+    let a = (x2 * (y1 - y0) + x1 * (y0 - y2) + x0 * (y2 - y1)) / denom;
+    let b = (x2 * x2 * (y0 - y1) + x1 * x1 * (y2 - y0) + x0 * x0 * (y1 - y2)) / denom;
+    if a.is_nan() || a <= 0.0 || !b.is_finite() {
+        return grid[best];
+    }
+    (-b / (2.0 * a)).clamp(x0, x2) as f32
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_parabola_finds_a_minimum_between_grid_points() {
+        let grid = [0.0, 0.1, 0.2, 0.3];
+        // (s - 0.17)^2 sampled on the grid.
+        let r: Vec<f64> = grid
+            .iter()
+            .map(|&s: &f32| (f64::from(s) - 0.17).powi(2))
+            .collect();
+        assert!((refined(&grid, &r, 2) - 0.17).abs() < 1e-4);
+        // At the grid's end the grid point stands.
+        assert_eq!(refined(&grid, &[0.1, 0.2, 0.3, 0.4], 0), 0.0);
+        // A flat triple keeps the grid point.
+        assert_eq!(refined(&grid, &[0.2, 0.2, 0.2, 0.3], 1), 0.1);
+    }
+
+    #[test]
+    fn the_share_residual_ignores_the_texture_and_scale_that_multiply_every_flash() {
+        let render = vec![vec![1.0, 2.0, 3.0], vec![3.0, 2.0, 1.0]];
+        // The photo: the render times a texture per cell and a scale.
+        let texture = [0.2, 0.9, 0.5];
+        let photo: Vec<Vec<f64>> = render
+            .iter()
+            .map(|l| l.iter().zip(texture).map(|(v, t)| 7.0 * v * t).collect())
+            .collect();
+        assert!(share_residual(&photo, &render, &[0, 1, 2]) < 1e-12);
+        // Swapping the flashes on one cell is seen.
+        let mut swapped = photo.clone();
+        swapped[0][0] = photo[1][0];
+        swapped[1][0] = photo[0][0];
+        let r = share_residual(&swapped, &render, &[0, 1, 2]);
+        // Cell 0's shares go from (1/4, 3/4) to (3/4, 1/4): two differences
+        // of 1/2 among six.
+        assert!((r - (2.0 * 0.25f64 / 6.0).sqrt()).abs() < 1e-12, "{r}");
+    }
+
+    /// The product's options at this test's 24 cells across.
+    const TEST_OPTIONS: ScatteringOptions = ScatteringOptions {
+        cells: 24,
+        samples: 128,
+        min_cells: 16,
+        seed: 7,
+    };
+
+    /// A sweep-subsurface sphere's object, reference camera at `cells`
+    /// pixels across and flashes.
+    fn sphere() -> (Mesh, PinholeCamera, Vec<PointLight>) {
+        use matscan_sim::scene::{generate, GeometryKind, GeometrySource, SceneKind, SceneOptions};
+        let scene = generate(&SceneOptions {
+            seed: 5,
+            kind: SceneKind::SweepSubsurface,
+            geometry: GeometrySource::Kind(GeometryKind::Sphere),
+            width: 24,
+            height: 24,
+            positions: 1,
+            map_size: 8,
+        });
+        let position = &scene.rig.positions[0];
+        let camera = PinholeCamera::new(scene.rig.intrinsics, position.camera_to_world);
+        (scene.mesh.clone(), camera, position.flashes.clone())
+    }
+
+    /// Photos of the sphere rendered at `subsurface` with other random
+    /// numbers than the measurement's, and every cell that shows it.
+    fn photos_at(subsurface: f32) -> (Mesh, FlashPhotos, Vec<usize>) {
+        let (mesh, camera, flashes) = sphere();
+        let object = ObjectGeometry::new(&mesh);
+        let material = Material {
+            basecolor: Vec3::splat(0.5),
+            roughness: 0.5,
+            metallic: 0.0,
+            transmission: 0.0,
+            subsurface,
+            subsurface_radius: DEFAULT_SUBSURFACE_RADIUS,
+        };
+        let luma = render_luma(&object, camera, &flashes, &material, 512, 1234);
+        // The object's cells away from its silhouette, as the product's
+        // cells wholly of a material are.
+        let lit = |x: usize, y: usize| luma.iter().all(|l| l[y * 24 + x] > 0.0);
+        let cells = (0..24 * 24)
+            .filter(|&k| {
+                let (x, y) = (k % 24, k / 24);
+                (1..23).contains(&x)
+                    && (1..23).contains(&y)
+                    && (0..9).all(|j| lit(x + j % 3 - 1, y + j / 3 - 1))
+            })
+            .collect();
+        let photos = FlashPhotos {
+            size: (24, 24),
+            factor: 1,
+            flashes,
+            luma,
+            camera,
+        };
+        (mesh, photos, cells)
+    }
+
+    #[test]
+    fn a_scattering_sphere_is_measured_near_the_subsurface_it_was_rendered_with() {
+        let (mesh, photos, cells) = photos_at(0.3);
+        assert!(cells.len() > 60, "{} cells", cells.len());
+        let fit = measure(&mesh, &photos, &cells, Vec3::splat(0.5), 0.5, &TEST_OPTIONS);
+        let SubsurfaceFit::Measured {
+            value,
+            residual,
+            residual_without,
+            ..
+        } = fit
+        else {
+            panic!("blind: {fit:?}");
+        };
+        assert!((value - 0.3).abs() <= 0.08, "measured {value}");
+        assert!(
+            residual_without > 2.0 * residual,
+            "{residual_without} vs {residual}"
+        );
+    }
+
+    #[test]
+    fn an_opaque_sphere_is_measured_without_scattering() {
+        let (mesh, photos, cells) = photos_at(0.0);
+        let fit = measure(&mesh, &photos, &cells, Vec3::splat(0.5), 0.5, &TEST_OPTIONS);
+        let value = fit.value().expect("measured");
+        assert!(value <= 0.05, "measured {value}");
+    }
+
+    #[test]
+    fn one_flash_too_few_cells_or_black_photos_are_blind_with_a_reason() {
+        let (mesh, mut photos, cells) = photos_at(0.3);
+        let options = ScatteringOptions::default();
+        let few = measure(&mesh, &photos, &cells[..3], Vec3::splat(0.5), 0.5, &options);
+        assert!(
+            matches!(&few, SubsurfaceFit::Blind { reason } if reason.contains("3 cell(s)")),
+            "{few:?}"
+        );
+        let mut black = photos.luma.clone();
+        for l in &mut photos.luma {
+            l.iter_mut().for_each(|v| *v = 0.0);
+        }
+        let dark = measure(&mesh, &photos, &cells, Vec3::splat(0.5), 0.5, &options);
+        assert!(
+            matches!(&dark, SubsurfaceFit::Blind { reason } if reason.contains("flash light")),
+            "{dark:?}"
+        );
+        black.truncate(1);
+        photos.luma = black;
+        photos.flashes.truncate(1);
+        let one = measure(&mesh, &photos, &cells, Vec3::splat(0.5), 0.5, &options);
+        assert!(
+            matches!(&one, SubsurfaceFit::Blind { reason } if reason.contains("needs two")),
+            "{one:?}"
+        );
+        // A NaN basecolor or roughness renders a mid grey rather than NaN.
+        let (mesh, photos, cells) = photos_at(0.3);
+        let fit = measure(&mesh, &photos, &cells, Vec3::NAN, f32::NAN, &options);
+        assert!(fit.value().is_some_and(f32::is_finite), "{fit:?}");
+    }
+
+    #[test]
+    fn dark_clipped_or_missing_cells_give_no_residual_rather_than_nan_arithmetic() {
+        let dark = vec![vec![0.0, f64::NAN], vec![0.0, 1.0]];
+        let render = vec![vec![1.0, 1.0], vec![1.0, 1.0]];
+        assert!(share_residual(&dark, &render, &[0, 1]).is_nan());
+        assert!(share_residual(&render, &render, &[]).is_nan());
+    }
+}
