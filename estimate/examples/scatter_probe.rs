@@ -14,7 +14,7 @@
 
 use glam::Vec3;
 use matscan_bsdf::material::{Material, DEFAULT_SUBSURFACE_RADIUS};
-use matscan_estimate::fit::scattering::render_flashes;
+use matscan_estimate::fit::scattering::FlashRender;
 use matscan_scan::camera::PinholeCamera;
 use matscan_scan::{LightKind, Param};
 use matscan_sim::render::world::ObjectGeometry;
@@ -143,7 +143,14 @@ fn main() -> Result<(), support::Error> {
                 subsurface: s,
                 subsurface_radius: DEFAULT_SUBSURFACE_RADIUS,
             };
-            let img = render_flashes(&object, camera, &flashes, &m, spp, 7);
+            let img = FlashRender {
+                object: &object,
+                camera,
+                flashes: &flashes,
+                samples: spp,
+                seed: 7,
+            }
+            .images(&m);
             img.slots
                 .iter()
                 .map(|slot| {
@@ -173,10 +180,10 @@ fn main() -> Result<(), support::Error> {
             }
             let (mut sum, mut n) = (0.0f64, 0usize);
             for &k in &cells {
-                let luma = |v: [f32; 3]| f64::from(v[0] + v[1] + v[2]);
+                let light = |v: [f32; 3]| f64::from(v[0] + v[1] + v[2]);
                 let p0: f64 = photos[0][k].iter().sum();
                 let p1: f64 = photos[1][k].iter().sum();
-                let (r0, r1) = (luma(r[0][k]), luma(r[1][k]));
+                let (r0, r1) = (light(r[0][k]), light(r[1][k]));
                 if p0 + p1 > 0.0 && r0 + r1 > 0.0 {
                     sum += (p0 / (p0 + p1) - r0 / (r0 + r1)).powi(2);
                     n += 1;

@@ -1530,17 +1530,22 @@ fn parabola_minimum(row: &[f64], grid: &[f32], k: usize) -> f32 {
     if k == 0 || k + 1 >= row.len() {
         return grid[k.min(grid.len() - 1)];
     }
-    let x = |i: usize| f64::from(grid[i]).ln();
-    let (x0, x1, x2) = (x(k - 1), x(k), x(k + 1));
-    let (y0, y1, y2) = (row[k - 1], row[k], row[k + 1]);
+    let x = [k - 1, k, k + 1].map(|i| f64::from(grid[i]).ln());
+    let y = [k - 1, k, k + 1].map(|i| row[i]);
+    parabola_vertex(x, y).map_or(grid[k], |xm| (xm.exp() as f32).clamp(grid[0], 1.0))
+}
+
+/// The vertex of the parabola through three points (x ascending), kept
+/// between the outer two; `None` where they do not bend upward.
+pub(crate) fn parabola_vertex(x: [f64; 3], y: [f64; 3]) -> Option<f64> {
+    let ([x0, x1, x2], [y0, y1, y2]) = (x, y);
     let d = (x0 - x1) * (x0 - x2) * (x1 - x2);
     let a = (x2 * (y1 - y0) + x1 * (y0 - y2) + x0 * (y2 - y1)) / d;
     let b = (x2 * x2 * (y0 - y1) + x1 * x1 * (y2 - y0) + x0 * x0 * (y1 - y2)) / d;
     if a.is_nan() || a <= 0.0 || !b.is_finite() {
-        return grid[k];
+        return None;
     }
-    let xm = (-b / (2.0 * a)).clamp(x0, x2);
-    (xm.exp() as f32).clamp(grid[0], 1.0)
+    Some((-b / (2.0 * a)).clamp(x0, x2))
 }
 
 /// Where the costs still fall at the grid's roughest lobe: the minimum

@@ -120,9 +120,9 @@ pub struct FlashPhotos {
     /// Reference pixels per cell side.
     pub factor: usize,
     pub flashes: Vec<PointLight>,
-    /// Per flash, lit minus ambient luma per cell (NaN where a pixel
-    /// clipped).
-    pub luma: Vec<Vec<f64>>,
+    /// Per flash, lit minus ambient per cell, summed over the channels
+    /// (NaN where a pixel clipped).
+    pub light: Vec<Vec<f64>>,
     pub camera: PinholeCamera,
 }
 
@@ -138,7 +138,7 @@ impl FlashPhotos {
         let position = bundle.position(&inputs.reference)?;
         let factor = (inputs.width / options.cells.max(1)).max(1);
         let size = (inputs.width / factor, inputs.height / factor);
-        let (mut flashes, mut luma) = (Vec::new(), Vec::new());
+        let (mut flashes, mut per_flash) = (Vec::new(), Vec::new());
         for planes in inputs
             .views
             .iter()
@@ -159,11 +159,8 @@ impl FlashPhotos {
             let (lit, ambient) = (planes.lit(), planes.ambient());
             let cells = (0..size.0 * size.1)
                 .map(|k| {
-                    let (cx, cy) = (k % size.0, k / size.0);
                     let mut sum = 0.0f64;
-                    for j in 0..factor * factor {
-                        let i =
-                            (cy * factor + j / factor) * inputs.width + cx * factor + j % factor;
+                    for i in cell_pixels(size.0, factor, inputs.width, k) {
                         // NaN counts as clipped.
                         if (0..3).any(|c| lit[i][c].is_nan() || lit[i][c] >= clip[c]) {
                             return f64::NAN;
@@ -175,7 +172,7 @@ impl FlashPhotos {
                     sum / (factor * factor) as f64
                 })
                 .collect();
-            luma.push(cells);
+            per_flash.push(cells);
             flashes.push(PointLight {
                 name: light.name.clone(),
                 position: at.as_vec3(),
@@ -200,7 +197,7 @@ impl FlashPhotos {
             size,
             factor,
             flashes,
-            luma,
+            light: per_flash,
             camera,
         }))
     }
@@ -208,15 +205,25 @@ impl FlashPhotos {
     /// The cells wholly inside `member` (per reference pixel) and
     /// unclipped in every flash.
     pub fn cells_of(&self, width: usize, member: impl Fn(usize) -> bool) -> Vec<usize> {
-        let f = self.factor;
         (0..self.size.0 * self.size.1)
             .filter(|&k| {
-                let (cx, cy) = (k % self.size.0, k / self.size.0);
-                self.luma.iter().all(|l| l[k].is_finite())
-                    && (0..f * f).all(|j| member((cy * f + j / f) * width + cx * f + j % f))
+                self.light.iter().all(|l| l[k].is_finite())
+                    && cell_pixels(self.size.0, self.factor, width, k).all(&member)
             })
             .collect()
     }
+}
+
+/// The reference pixels (of an image `width` wide) of cell `k` in a grid
+/// `across` cells wide, each `factor` pixels on a side.
+fn cell_pixels(
+    across: usize,
+    factor: usize,
+    width: usize,
+    k: usize,
+) -> impl Iterator<Item = usize> {
+    let (x0, y0) = ((k % across) * factor, (k / across) * factor);
+    (0..factor * factor).map(move |j| (y0 + j / factor) * width + x0 + j % factor)
 }
 
 /// The subsurface of a material covering `cells`, with `basecolor` and
@@ -251,6 +258,13 @@ pub fn measure(
     }
     let t = std::time::Instant::now();
     let object = ObjectGeometry::new(mesh);
+    let render = FlashRender {
+        object: &object,
+        camera: photos.camera,
+        flashes: &photos.flashes,
+        samples: options.samples,
+        seed: options.seed,
+    };
     let basecolor = if basecolor.is_finite() {
         basecolor.clamp(Vec3::ZERO, Vec3::ONE)
     } else {
@@ -272,15 +286,7 @@ pub fn measure(
                 subsurface,
                 subsurface_radius: DEFAULT_SUBSURFACE_RADIUS,
             };
-            let rendered = render_luma(
-                &object,
-                photos.camera,
-                &photos.flashes,
-                &material,
-                options.samples,
-                options.seed,
-            );
-            share_residual(&photos.luma, &rendered, cells)
+            share_residual(&photos.light, &render.light(&material), cells)
         })
         .collect();
     let best = residuals
@@ -304,66 +310,65 @@ pub fn measure(
     }
 }
 
-/// Per flash, the luma of `object` with `material` over all of it
-/// ([`render_flashes`]).
-pub fn render_luma(
-    object: &ObjectGeometry<'_>,
-    camera: PinholeCamera,
-    flashes: &[PointLight],
-    material: &Material,
-    samples: u32,
-    seed: u64,
-) -> Vec<Vec<f64>> {
-    render_flashes(object, camera, flashes, material, samples, seed)
-        .slots
-        .iter()
-        .map(|s| {
-            s.data
-                .iter()
-                .map(|v| v.iter().map(|&x| f64::from(x)).sum())
-                .collect()
-        })
-        .collect()
+/// The object under the flashes, as the measurement renders it: each
+/// flash alone, from one camera, with one material over the whole object.
+pub struct FlashRender<'a> {
+    pub object: &'a ObjectGeometry<'a>,
+    pub camera: PinholeCamera,
+    pub flashes: &'a [PointLight],
+    /// Path-tracing samples per pixel.
+    pub samples: u32,
+    pub seed: u64,
 }
 
-/// Per flash, the radiance of `object` with `material` over all of it,
-/// seen by `camera` and lit by that flash alone: one pass with one slot
-/// per flash, so the flashes share their paths.
-pub fn render_flashes(
-    object: &ObjectGeometry<'_>,
-    camera: PinholeCamera,
-    flashes: &[PointLight],
-    material: &Material,
-    samples: u32,
-    seed: u64,
-) -> PassImages {
-    let env = Environment::off();
-    let field = MaterialField::uniform(material);
-    let pass = Pass {
-        world: World::new(object, None),
-        camera,
-        env: &env,
-        env_slot: None,
-        flashes: flashes
+impl FlashRender<'_> {
+    /// Per flash, the radiance of the object with `material`: one pass
+    /// with one slot per flash, so the flashes share their paths.
+    pub fn images(&self, material: &Material) -> PassImages {
+        let env = Environment::off();
+        let field = MaterialField::uniform(material);
+        let pass = Pass {
+            world: World::new(self.object, None),
+            camera: self.camera,
+            env: &env,
+            env_slot: None,
+            flashes: self
+                .flashes
+                .iter()
+                .enumerate()
+                .map(|(slot, light)| (Flash::new(light), slot))
+                .collect(),
+            projector: None,
+            backlight_slot: None,
+            materials: MaterialMode::Authored(&field),
+            slots: self.flashes.len(),
+            max_depth: 8,
+            clamp_indirect: DEFAULT_CLAMP_INDIRECT,
+        };
+        pass.render(
+            self.samples,
+            PassKey {
+                seed: self.seed,
+                position: 0,
+                pass: 0,
+            },
+        )
+    }
+
+    /// Per flash, [`Self::images`] summed over the channels, as
+    /// [`FlashPhotos::light`] holds the photos.
+    pub fn light(&self, material: &Material) -> Vec<Vec<f64>> {
+        self.images(material)
+            .slots
             .iter()
-            .enumerate()
-            .map(|(slot, light)| (Flash::new(light), slot))
-            .collect(),
-        projector: None,
-        backlight_slot: None,
-        materials: MaterialMode::Authored(&field),
-        slots: flashes.len(),
-        max_depth: 8,
-        clamp_indirect: DEFAULT_CLAMP_INDIRECT,
-    };
-    pass.render(
-        samples,
-        PassKey {
-            seed,
-            position: 0,
-            pass: 0,
-        },
-    )
+            .map(|s| {
+                s.data
+                    .iter()
+                    .map(|v| v.iter().map(|&x| f64::from(x)).sum())
+                    .collect()
+            })
+            .collect()
+    }
 }
 
 /// Root-mean-square difference, over `cells` and flashes, of each flash's
@@ -390,28 +395,15 @@ pub fn share_residual(photo: &[Vec<f64>], render: &[Vec<f64>], cells: &[usize]) 
 }
 
 /// The vertex of the parabola through `best` and its grid neighbours,
-/// kept between them; the grid point itself at the grid's ends or where
-/// the three do not bend upwards.
+/// kept between them ([`super::parabola_vertex`]); the grid point itself
+/// at the grid's ends or where the three do not bend upwards.
 pub fn refined(grid: &[f32], residuals: &[f64], best: usize) -> f32 {
-    if best == 0 || best + 1 >= grid.len() {
+    if best == 0 || best + 1 >= grid.len().min(residuals.len()) {
         return grid[best];
     }
-    let (x0, x1, x2) = (
-        f64::from(grid[best - 1]),
-        f64::from(grid[best]),
-        f64::from(grid[best + 1]),
-    );
-    let (y0, y1, y2) = (residuals[best - 1], residuals[best], residuals[best + 1]);
-    if !(y0.is_finite() && y2.is_finite()) {
-        return grid[best];
-    }
-    let denom = (x0 - x1) * (x0 - x2) * (x1 - x2);
-    let a = (x2 * (y1 - y0) + x1 * (y0 - y2) + x0 * (y2 - y1)) / denom;
-    let b = (x2 * x2 * (y0 - y1) + x1 * x1 * (y2 - y0) + x0 * x0 * (y1 - y2)) / denom;
-    if a.is_nan() || a <= 0.0 || !b.is_finite() {
-        return grid[best];
-    }
-    (-b / (2.0 * a)).clamp(x0, x2) as f32
+    let x = [best - 1, best, best + 1].map(|i| f64::from(grid[i]));
+    let y = [best - 1, best, best + 1].map(|i| residuals[i]);
+    super::parabola_vertex(x, y).map_or(grid[best], |v| v as f32)
 }
 
 #[cfg(test)]
@@ -492,10 +484,17 @@ mod tests {
             subsurface,
             subsurface_radius: DEFAULT_SUBSURFACE_RADIUS,
         };
-        let luma = render_luma(&object, camera, &flashes, &material, 512, 1234);
+        let light = FlashRender {
+            object: &object,
+            camera,
+            flashes: &flashes,
+            samples: 512,
+            seed: 1234,
+        }
+        .light(&material);
         // The object's cells away from its silhouette, as the product's
         // cells wholly of a material are.
-        let lit = |x: usize, y: usize| luma.iter().all(|l| l[y * 24 + x] > 0.0);
+        let lit = |x: usize, y: usize| light.iter().all(|l| l[y * 24 + x] > 0.0);
         let cells = (0..24 * 24)
             .filter(|&k| {
                 let (x, y) = (k % 24, k / 24);
@@ -508,7 +507,7 @@ mod tests {
             size: (24, 24),
             factor: 1,
             flashes,
-            luma,
+            light,
             camera,
         };
         (mesh, photos, cells)
@@ -552,8 +551,8 @@ mod tests {
             matches!(&few, SubsurfaceFit::Blind { reason } if reason.contains("3 cell(s)")),
             "{few:?}"
         );
-        let mut black = photos.luma.clone();
-        for l in &mut photos.luma {
+        let mut black = photos.light.clone();
+        for l in &mut photos.light {
             l.iter_mut().for_each(|v| *v = 0.0);
         }
         let dark = measure(&mesh, &photos, &cells, Vec3::splat(0.5), 0.5, &options);
@@ -562,7 +561,7 @@ mod tests {
             "{dark:?}"
         );
         black.truncate(1);
-        photos.luma = black;
+        photos.light = black;
         photos.flashes.truncate(1);
         let one = measure(&mesh, &photos, &cells, Vec3::splat(0.5), 0.5, &options);
         assert!(
