@@ -714,3 +714,66 @@ fn fit_specular_is_fit_metallic_with_the_fits_roughness_where_the_photos_pin_it(
         Some("networks")
     );
 }
+
+#[test]
+fn a_subsurface_measured_at_the_reference_serves_every_other_position() {
+    // A grey sphere at sweep step 10 (subsurface 0.53): its light scatters
+    // inside, so the fit measures its subsurface by rendering.
+    let dir = tempfile::tempdir().unwrap();
+    let scan = dir.path().join("scan");
+    let scene = generate(&SceneOptions {
+        seed: 10,
+        kind: SceneKind::SweepSubsurface,
+        geometry: GeometrySource::Kind(GeometryKind::Sphere),
+        width: 64,
+        height: 64,
+        positions: 2,
+        map_size: 16,
+    });
+    let sim = SimOptions {
+        samples: 4,
+        seed: 3,
+        threads: Some(2),
+        ..SimOptions::default()
+    };
+    write_scan_bundle(&scene, &sim, &scan).unwrap();
+    let out = dir.path().join("every");
+    let result = run(
+        &scan,
+        &EstimateOptions {
+            out: Some(out.clone()),
+            references: References::Every,
+            // The tiny random networks' transmission could call the
+            // sphere clear, which the measurement leaves out.
+            given: vec![(Param::Transmission, Given::Constant(0.0))],
+            ..EstimateOptions::default()
+        },
+    )
+    .unwrap();
+    let fit = result.fit.expect("the default method fits");
+    let measured: Vec<f32> = fit
+        .materials
+        .iter()
+        .filter_map(|m| m.subsurface.as_ref()?.value())
+        .collect();
+    let value = *measured
+        .first()
+        .unwrap_or_else(|| panic!("a scattering material measured at p0: {fit:?}"));
+    assert!(measured.iter().all(|&v| v == value), "{measured:?}");
+    // A second measurement at p1 would render with p1's photos and camera
+    // and land elsewhere; the value itself, bit for bit, is p0's.
+    let mask = Bundle::open(&scan)
+        .unwrap()
+        .read_truth("p1", &TruthMap::Mask)
+        .unwrap()
+        .unwrap()
+        .into_mask()
+        .unwrap();
+    let p1 = read_scalar_exr(&out.join("p1/subsurface.exr")).unwrap();
+    let inside = p1.data.iter().zip(&mask.data).filter(|(_, &m)| m);
+    let taken = inside.clone().filter(|(&v, _)| v == value).count();
+    assert!(
+        taken * 2 > inside.count(),
+        "p1 takes p0's subsurface {value} on most of its object ({taken} pixels)"
+    );
+}

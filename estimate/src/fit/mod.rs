@@ -283,6 +283,11 @@ pub struct Known<'a> {
     /// that passes light is fitted as a dielectric, one that passes none
     /// is fitted without transmission.
     pub backlight: Option<&'a Backlight>,
+    /// The subsurface the scan's scattering materials measured at another
+    /// position ([`scattering::measure`]): a material property, so the
+    /// renders (the fit's costliest step) run once per scan and every
+    /// other position's scattering materials take it.
+    pub subsurface: Option<&'a SubsurfaceFit>,
 }
 
 /// What the fit found of one material.
@@ -598,17 +603,15 @@ pub fn fit_scene(
         fallback,
         options,
     );
-    if let Some(o) = &options.scattering {
-        measure_subsurface(
-            bundle,
-            inputs,
-            &mut fitted,
-            transmission,
-            fallback,
-            o,
-            options.saturation,
-        )?;
-    }
+    measure_subsurface(
+        bundle,
+        inputs,
+        &mut fitted,
+        transmission,
+        fallback,
+        known.subsurface,
+        options,
+    )?;
     notes.append(&mut fitted.notes);
     fitted.notes = notes;
     fitted.seconds = t.elapsed().as_secs_f64();
@@ -636,16 +639,20 @@ fn scatters_inside(m: &MaterialFit) -> bool {
 /// together, from the reference position's flash
 /// photos, with the basecolor the fallback gives them (its median over
 /// them; the fit's own where there is none, though a scattering material's
-/// surface fit reads dark) and their median fitted roughness.
+/// surface fit reads dark) and their median fitted roughness; or gives
+/// them what another position `measured`.
 fn measure_subsurface(
     bundle: &Bundle,
     inputs: &SceneInputs,
     fitted: &mut Fitted,
     transmission: &[f32],
     fallback: Option<Fallback<'_>>,
-    options: &ScatteringOptions,
-    saturation: f32,
+    measured: Option<&SubsurfaceFit>,
+    options: &FitOptions,
 ) -> Result<(), RefineError> {
+    let Some(scattering) = &options.scattering else {
+        return Ok(());
+    };
     // A material the transmission map (the networks' or the user's) calls
     // clear shows the checker refracted, not scattered: its global share
     // says nothing of how far light travels under its surface.
@@ -662,7 +669,13 @@ fn measure_subsurface(
     if chosen.is_empty() {
         return Ok(());
     }
-    let photos = match FlashPhotos::new(bundle, inputs, options, saturation)? {
+    if let Some(fit) = measured {
+        for j in chosen {
+            fitted.materials[j].subsurface = Some(fit.clone());
+        }
+        return Ok(());
+    }
+    let photos = match FlashPhotos::new(bundle, inputs, scattering, options.saturation)? {
         Ok(p) => p,
         Err(reason) => {
             for &j in &chosen {
@@ -698,7 +711,7 @@ fn measure_subsurface(
         &cells,
         basecolor,
         roughness,
-        options,
+        scattering,
     );
     for j in chosen {
         fitted.materials[j].subsurface = Some(fit.clone());

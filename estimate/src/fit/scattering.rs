@@ -94,6 +94,9 @@ pub enum SubsurfaceFit {
         /// The same at no subsurface: how much better scattering explains
         /// the photos.
         residual_without: f64,
+        /// Every rendered subsurface and its residual: how sharply the
+        /// photos single out `value`.
+        curve: Vec<[f64; 2]>,
         cells: usize,
         /// Time the renders took, s.
         seconds: f64,
@@ -305,6 +308,11 @@ pub fn measure(
         value: refined(&GRID, &residuals, best),
         residual: residuals[best],
         residual_without: residuals[0],
+        curve: GRID
+            .iter()
+            .zip(&residuals)
+            .map(|(&g, &r)| [f64::from(g), r])
+            .collect(),
         cells: cells.len(),
         seconds: t.elapsed().as_secs_f64(),
     }

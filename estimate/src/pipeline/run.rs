@@ -23,6 +23,7 @@
 //! `inputs`), the plan (see `plan`), file layout (see `output`), the fit
 //! (see `refine`).
 
+use crate::fit::scattering::SubsurfaceFit;
 use crate::fit::{fit_scene, Constrained, Fallback, FitOptions, Fitted, Known};
 use crate::net::models::{ModelSource, Models, ModelsError};
 use crate::net::network::InputError;
@@ -496,7 +497,12 @@ impl Pass<'_> {
         let mut runs = BTreeMap::new();
         self.run_networks(before, inputs, &mut values, &mut runs)?;
         let mut fitted = if self.method.fits() {
-            Some(self.fit_values(&mut values, inputs)?)
+            Some(fit_values(
+                self,
+                &mut values,
+                inputs,
+                fits.subsurface.as_ref(),
+            )?)
         } else {
             None
         };
@@ -562,14 +568,6 @@ impl Pass<'_> {
             runs,
         )
     }
-
-    fn fit_values(
-        &self,
-        values: &mut Values,
-        inputs: &SceneInputs,
-    ) -> Result<Fitted, EstimateError> {
-        fit_values(self, values, inputs)
-    }
 }
 
 /// What the fits of all positions did: the reference position's summary
@@ -579,11 +577,21 @@ struct FitTally {
     seconds: f64,
     constrained: Option<Constrained>,
     summary: Option<FitSummary>,
+    /// The first subsurface a position measured, which the later positions
+    /// take ([`Known::subsurface`]).
+    subsurface: Option<SubsurfaceFit>,
 }
 
 impl FitTally {
     fn add(&mut self, method: Method, fitted: &Fitted, bundle: &Bundle, inputs: &SceneInputs) {
         self.seconds += fitted.seconds;
+        if self.subsurface.is_none() {
+            self.subsurface = fitted
+                .materials
+                .iter()
+                .filter_map(|m| m.subsurface.clone())
+                .find(|s| s.value().is_some());
+        }
         if self.summary.is_some() {
             return;
         }
@@ -653,6 +661,7 @@ fn fit_values(
     pass: &Pass<'_>,
     values: &mut Values,
     inputs: &SceneInputs,
+    subsurface: Option<&SubsurfaceFit>,
 ) -> Result<Fitted, EstimateError> {
     let Pass {
         plan,
@@ -680,6 +689,7 @@ fn fit_values(
             .flatten(),
         labels: labels.as_deref(),
         backlight: None,
+        subsurface,
     };
     let grey = vec![[0.5f32; 3]; n];
     let half = vec![0.5f32; n];
