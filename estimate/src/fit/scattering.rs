@@ -75,7 +75,7 @@ impl Default for ScatteringOptions {
     fn default() -> Self {
         ScatteringOptions {
             cells: 32,
-            samples: 128,
+            samples: 512,
             min_cells: 16,
             seed: 7,
         }
