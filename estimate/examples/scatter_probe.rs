@@ -9,8 +9,11 @@
 //!   cargo run --release -p matscan-estimate --example scatter_probe -- DIR [CELLS] [SPP] [GREY]
 //!
 //! `AUTO=1` also gives each subsurface the basecolor whose render matches
-//! the photos' level. Results: docs/results.md, "Subsurface by rendering
-//! the scan's own object".
+//! the photos' level. `PANEL=RECIPE` renders with the simulator's
+//! backlight panel of each scene (regenerated from the recipe that
+//! rendered it), which the product cannot know. Results: docs/results.md,
+//! "Subsurface by rendering the scan's own object" and "Subsurface across
+//! the whole sweep".
 
 use glam::Vec3;
 use matscan_bsdf::material::{Material, DEFAULT_SUBSURFACE_RADIUS};
@@ -40,6 +43,10 @@ fn main() -> Result<(), support::Error> {
     // Whether each subsurface gets the basecolor that matches the photos'
     // level (two renders place it), before its residual.
     let auto = std::env::var("AUTO").is_ok();
+    let panel_recipe = std::env::var("PANEL")
+        .ok()
+        .map(|p| matscan_sim::dataset::Recipe::read(Path::new(&p)))
+        .transpose()?;
     for dir in matscan_scan::bundle::find_bundles(root)? {
         let scan = support::open(&dir)?;
         let (bundle, inputs) = (&scan.bundle, &scan.inputs);
@@ -81,6 +88,13 @@ fn main() -> Result<(), support::Error> {
             reference.camera_to_world,
         );
         let position = bundle.position(&inputs.reference)?;
+        // PANEL=RECIPE: the simulator's backlight panel of this scene (the
+        // recipe's scene regenerated), which reflects flash light back
+        // onto the object in the photos; the product renders without it.
+        let panel = match &panel_recipe {
+            Some(recipe) => simulated_panel(recipe, &dir, &inputs.reference, camera.center())?,
+            None => None,
+        };
         // cells wholly of the selection
         let cell_ok: Vec<bool> = (0..sw * sh)
             .map(|k| {
@@ -145,6 +159,7 @@ fn main() -> Result<(), support::Error> {
             };
             let img = FlashRender {
                 object: &object,
+                panel: panel.as_ref(),
                 camera,
                 flashes: &flashes,
                 samples: spp,
@@ -257,4 +272,26 @@ fn main() -> Result<(), support::Error> {
         println!("{line}");
     }
     Ok(())
+}
+
+/// The backlight panel `recipe` rendered for the scan in `dir` at
+/// `position` (p0, p1, ...), seen from `camera_center`.
+fn simulated_panel(
+    recipe: &matscan_sim::dataset::Recipe,
+    dir: &Path,
+    position: &str,
+    camera_center: glam::DVec3,
+) -> Result<Option<matscan_sim::render::lights::Panel>, support::Error> {
+    let planned = recipe.scenes()?;
+    let Some(scene) = planned.iter().find(|p| dir.ends_with(&p.folder)) else {
+        return Ok(None);
+    };
+    let scene = matscan_sim::scene::generate(&scene.scene);
+    let Some(at) = scene.rig.positions.iter().find(|p| p.name == position) else {
+        return Ok(None);
+    };
+    Ok(matscan_sim::render::lights::Panel::new(
+        &at.backlight,
+        camera_center.as_vec3(),
+    ))
 }

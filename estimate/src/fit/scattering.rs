@@ -49,7 +49,7 @@ use matscan_sim::render::environment::Environment;
 use matscan_sim::render::integrator::{
     MaterialMode, Pass, PassImages, PassKey, DEFAULT_CLAMP_INDIRECT,
 };
-use matscan_sim::render::lights::Flash;
+use matscan_sim::render::lights::{Flash, Panel};
 use matscan_sim::render::world::{ObjectGeometry, World};
 use matscan_sim::scene::model::{MaterialField, PointLight};
 use serde::{Deserialize, Serialize};
@@ -263,6 +263,7 @@ pub fn measure(
     let object = ObjectGeometry::new(mesh);
     let render = FlashRender {
         object: &object,
+        panel: None,
         camera: photos.camera,
         flashes: &photos.flashes,
         samples: options.samples,
@@ -322,6 +323,11 @@ pub fn measure(
 /// flash alone, from one camera, with one material over the whole object.
 pub struct FlashRender<'a> {
     pub object: &'a ObjectGeometry<'a>,
+    /// The backlight panel behind the object, which reflects the flashes'
+    /// light back onto it, where its place is known: the simulator's, for
+    /// the probe. The contract gives a rig's panel no pose, so the
+    /// measurement renders without it.
+    pub panel: Option<&'a Panel>,
     pub camera: PinholeCamera,
     pub flashes: &'a [PointLight],
     /// Path-tracing samples per pixel.
@@ -336,7 +342,7 @@ impl FlashRender<'_> {
         let env = Environment::off();
         let field = MaterialField::uniform(material);
         let pass = Pass {
-            world: World::new(self.object, None),
+            world: World::new(self.object, self.panel),
             camera: self.camera,
             env: &env,
             env_slot: None,
@@ -494,6 +500,7 @@ mod tests {
         };
         let light = FlashRender {
             object: &object,
+            panel: None,
             camera,
             flashes: &flashes,
             samples: 512,
