@@ -19,7 +19,7 @@ use glam::Vec3;
 use matscan_bsdf::material::{Material, DEFAULT_SUBSURFACE_RADIUS};
 use matscan_estimate::fit::scattering::FlashRender;
 use matscan_scan::camera::PinholeCamera;
-use matscan_scan::{LightKind, Param};
+use matscan_scan::Param;
 use matscan_sim::render::world::ObjectGeometry;
 use matscan_sim::scene::model::PointLight;
 use std::path::Path;
@@ -115,10 +115,10 @@ fn main() -> Result<(), support::Error> {
             .iter()
             .filter(|v| v.view.position == inputs.reference)
         {
-            let Some(light) = position.lights.iter().find(|l| l.name == view.view.light) else {
-                continue;
-            };
-            let LightKind::Point { position: lp } = light.kind else {
+            let Some(flash) = position
+                .light(&view.view.light)
+                .and_then(PointLight::from_manifest)
+            else {
                 continue;
             };
             let photo: Vec<[f64; 3]> = (0..sw * sh)
@@ -135,12 +135,7 @@ fn main() -> Result<(), support::Error> {
                 })
                 .collect();
             photos.push(photo);
-            flashes.push(PointLight {
-                name: light.name.clone(),
-                position: lp.as_vec3(),
-                color: Vec3::from_array(light.color.map(|c| c as f32)),
-                intensity: light.intensity.unwrap_or(1.0) as f32,
-            });
+            flashes.push(flash);
         }
         let exposure = inputs
             .views

@@ -25,29 +25,36 @@ fn fixture() -> &'static (TempDir, PathBuf, PathBuf) {
     static FIXTURE: OnceLock<(TempDir, PathBuf, PathBuf)> = OnceLock::new();
     FIXTURE.get_or_init(|| {
         let dir = tempfile::tempdir().unwrap();
-        let scan = dir.path().join("scan");
-        let scene = generate(&SceneOptions {
-            seed: 4,
-            kind: SceneKind::MultimatNoEnv,
-            geometry: GeometrySource::Kind(GeometryKind::Sphere),
-            width: 32,
-            height: 32,
-            positions: 2,
-            map_size: 16,
-        });
-        let options = SimOptions {
-            samples: 1,
-            seed: 3,
-            threads: Some(2),
-            ..SimOptions::default()
-        };
-        write_scan_bundle(&scene, &options, &scan).unwrap();
+        let scan = simulated_sphere(dir.path(), SceneKind::MultimatNoEnv, 4, 32, 1);
         let weights = dir.path().join("weights");
         let models =
             Models::seeded(&matscan_estimate::PIPELINE_ORDER, 8, 17, &cpu_device()).unwrap();
         models.save_dir(&weights).unwrap();
         (dir, scan, weights)
     })
+}
+
+/// A two-position sphere of `kind` and `seed`, `size` pixels square,
+/// rendered with `samples` paths per pixel into `into/scan`.
+fn simulated_sphere(into: &Path, kind: SceneKind, seed: u64, size: u32, samples: u32) -> PathBuf {
+    let scan = into.join("scan");
+    let scene = generate(&SceneOptions {
+        seed,
+        kind,
+        geometry: GeometrySource::Kind(GeometryKind::Sphere),
+        width: size,
+        height: size,
+        positions: 2,
+        map_size: 16,
+    });
+    let options = SimOptions {
+        samples,
+        seed: 3,
+        threads: Some(2),
+        ..SimOptions::default()
+    };
+    write_scan_bundle(&scene, &options, &scan).unwrap();
+    scan
 }
 
 /// A private copy of the fixture scan (tests edit or write into it).
@@ -721,23 +728,7 @@ fn a_subsurface_measured_at_the_reference_serves_every_other_position() {
     // A grey sphere at sweep step 10 (subsurface 0.53): its light scatters
     // inside, so the fit measures its subsurface by rendering.
     let dir = tempfile::tempdir().unwrap();
-    let scan = dir.path().join("scan");
-    let scene = generate(&SceneOptions {
-        seed: 10,
-        kind: SceneKind::SweepSubsurface,
-        geometry: GeometrySource::Kind(GeometryKind::Sphere),
-        width: 64,
-        height: 64,
-        positions: 2,
-        map_size: 16,
-    });
-    let sim = SimOptions {
-        samples: 4,
-        seed: 3,
-        threads: Some(2),
-        ..SimOptions::default()
-    };
-    write_scan_bundle(&scene, &sim, &scan).unwrap();
+    let scan = simulated_sphere(dir.path(), SceneKind::SweepSubsurface, 10, 64, 4);
     let out = dir.path().join("every");
     let result = run(
         &scan,

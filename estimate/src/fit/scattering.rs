@@ -44,7 +44,7 @@ use glam::Vec3;
 use matscan_bsdf::material::{Material, DEFAULT_SUBSURFACE_RADIUS};
 use matscan_scan::camera::PinholeCamera;
 use matscan_scan::mesh::Mesh;
-use matscan_scan::{Bundle, LightKind};
+use matscan_scan::Bundle;
 use matscan_sim::render::environment::Environment;
 use matscan_sim::render::integrator::{
     MaterialMode, Pass, PassImages, PassKey, DEFAULT_CLAMP_INDIRECT,
@@ -147,17 +147,13 @@ impl FlashPhotos {
             .iter()
             .filter(|p| p.view.position == inputs.reference)
         {
-            let Some(light) = position.light(&planes.view.light) else {
-                continue;
-            };
-            let (LightKind::Point { position: at }, Some(intensity)) =
-                (&light.kind, light.intensity)
+            let Some(flash) = position
+                .light(&planes.view.light)
+                .and_then(PointLight::from_manifest)
+                .filter(|f| f.intensity > 0.0)
             else {
                 continue;
             };
-            if !(intensity.is_finite() && intensity > 0.0) {
-                continue;
-            }
             let clip = clip_level(planes, saturation);
             let (lit, ambient) = (planes.lit(), planes.ambient());
             let cells = (0..size.0 * size.1)
@@ -176,12 +172,7 @@ impl FlashPhotos {
                 })
                 .collect();
             per_flash.push(cells);
-            flashes.push(PointLight {
-                name: light.name.clone(),
-                position: at.as_vec3(),
-                color: Vec3::from_array(light.color.map(|c| c as f32)),
-                intensity: intensity as f32,
-            });
+            flashes.push(flash);
         }
         if flashes.len() < 2 {
             return Ok(Err(format!(

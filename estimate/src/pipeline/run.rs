@@ -589,8 +589,9 @@ impl FitTally {
             self.subsurface = fitted
                 .materials
                 .iter()
-                .filter_map(|m| m.subsurface.clone())
-                .find(|s| s.value().is_some());
+                .filter_map(|m| m.subsurface.as_ref())
+                .find(|s| s.value().is_some())
+                .cloned();
         }
         if self.summary.is_some() {
             return;

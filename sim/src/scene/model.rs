@@ -4,7 +4,7 @@
 
 use glam::{DMat4, Vec2, Vec3};
 use matscan_bsdf::material::Material;
-use matscan_scan::{camera::Intrinsics, raster::Raster, Mesh, SurfacePoint};
+use matscan_scan::{camera::Intrinsics, raster::Raster, Light, LightKind, Mesh, SurfacePoint};
 use std::path::PathBuf;
 
 /// What can go wrong building a scene from user input.
@@ -88,6 +88,23 @@ pub struct PointLight {
     pub color: Vec3,
     /// Radiant intensity in W/sr (scene units).
     pub intensity: f32,
+}
+
+impl PointLight {
+    /// The flash a manifest's `light` describes: `None` for a light of
+    /// another kind, or one without a finite, non-negative intensity.
+    pub fn from_manifest(light: &Light) -> Option<PointLight> {
+        let LightKind::Point { position } = light.kind else {
+            return None;
+        };
+        let intensity = light.intensity.filter(|i| i.is_finite() && *i >= 0.0)?;
+        Some(PointLight {
+            name: light.name.clone(),
+            position: position.as_vec3(),
+            color: Vec3::from_array(light.color.map(|c| c as f32)),
+            intensity: intensity as f32,
+        })
+    }
 }
 
 /// A pinhole projector; `projector_to_world` in the OpenCV frame.

@@ -346,11 +346,13 @@ pub fn rig_to_manifest_lights(position: &RigPosition) -> Vec<Light> {
 pub fn rig_from_manifest(manifest: &Manifest) -> Result<Rig, String> {
     let mut positions = Vec::new();
     for p in &manifest.positions {
+        let no_intensity =
+            |l: &Light| format!("position {}: light `{}` has no intensity", p.name, l.name);
         let intensity = |l: &Light| {
             l.intensity
                 .filter(|i| i.is_finite() && *i >= 0.0)
                 .map(|i| i as f32)
-                .ok_or_else(|| format!("position {}: light `{}` has no intensity", p.name, l.name))
+                .ok_or_else(|| no_intensity(l))
         };
         let colour = |l: &Light| Vec3::from_array(l.color.map(|c| c as f32));
         let mut flashes = Vec::new();
@@ -358,12 +360,9 @@ pub fn rig_from_manifest(manifest: &Manifest) -> Result<Rig, String> {
         let mut backlight = None;
         for l in &p.lights {
             match &l.kind {
-                LightKind::Point { position } => flashes.push(PointLight {
-                    name: l.name.clone(),
-                    position: position.as_vec3(),
-                    color: colour(l),
-                    intensity: intensity(l)?,
-                }),
+                LightKind::Point { .. } => {
+                    flashes.push(PointLight::from_manifest(l).ok_or_else(|| no_intensity(l))?)
+                }
                 LightKind::Projector {
                     projector_to_world,
                     intrinsics,
