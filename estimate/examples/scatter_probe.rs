@@ -157,6 +157,7 @@ fn main() -> Result<(), support::Error> {
                 panel: panel.as_ref(),
                 camera,
                 flashes: &flashes,
+                cells: None,
                 samples: spp,
                 seed: 7,
             }

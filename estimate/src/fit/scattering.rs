@@ -23,7 +23,10 @@
 //! everywhere and the shares flatten towards the flashes' ratio. The
 //! subsurface whose renders leave the least root-mean-square share
 //! difference, refined by a parabola through its grid neighbours, is the
-//! measurement. All candidates are rendered with the same random numbers,
+//! measurement. The grid is searched downhill from 0.3 rather than
+//! rendered whole ([`descend`]): the candidates share their random
+//! numbers, so the residual falls smoothly to one minimum, and the search
+//! finds the whole grid's least point with about 5 renders of 8. All candidates are rendered with the same random numbers,
 //! so that their differences are the material's and not the noise's.
 //!
 //! What limits it: the renders take the basecolor as given (the caller's:
@@ -54,8 +57,11 @@ use matscan_sim::render::world::{ObjectGeometry, World};
 use matscan_sim::scene::model::{MaterialField, PointLight};
 use serde::{Deserialize, Serialize};
 
-/// The subsurface values rendered.
+/// The subsurface values the renders may take.
 pub const GRID: [f32; 8] = [0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.7, 1.0];
+
+/// The grid point the search starts from ([`descend`]): 0.3.
+pub const START: usize = 3;
 
 /// How the measurement renders.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -91,11 +97,12 @@ pub enum SubsurfaceFit {
         /// Root-mean-square difference of the flashes' shares at `value`'s
         /// grid point.
         residual: f64,
-        /// The same at no subsurface: how much better scattering explains
-        /// the photos.
-        residual_without: f64,
-        /// Every rendered subsurface and its residual: how sharply the
-        /// photos single out `value`.
+        /// The same at no subsurface, where the search rendered it: how
+        /// much better scattering explains the photos.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        residual_without: Option<f64>,
+        /// Every rendered subsurface and its residual, in grid order: how
+        /// sharply the photos single out `value`.
         curve: Vec<[f64; 2]>,
         cells: usize,
         /// Time the renders took, s.
@@ -257,6 +264,7 @@ pub fn measure(
         panel: None,
         camera: photos.camera,
         flashes: &photos.flashes,
+        cells: Some(cells),
         samples: options.samples,
         seed: options.seed,
     };
@@ -270,40 +278,34 @@ pub fn measure(
     } else {
         0.5
     };
-    let residuals: Vec<f64> = GRID
-        .iter()
-        .map(|&subsurface| {
-            let material = Material {
-                basecolor,
-                roughness,
-                metallic: 0.0,
-                transmission: 0.0,
-                subsurface,
-                subsurface_radius: DEFAULT_SUBSURFACE_RADIUS,
-            };
-            share_residual(&photos.light, &render.light(&material), cells)
-        })
-        .collect();
-    let best = residuals
-        .iter()
-        .enumerate()
-        .filter(|(_, r)| r.is_finite())
-        .min_by(|a, b| a.1.total_cmp(b.1))
-        .map(|(g, _)| g);
-    let Some(best) = best else {
+    let residuals = descend(GRID.len(), START, |g| {
+        let material = Material {
+            basecolor,
+            roughness,
+            metallic: 0.0,
+            transmission: 0.0,
+            subsurface: GRID[g],
+            subsurface_radius: DEFAULT_SUBSURFACE_RADIUS,
+        };
+        share_residual(&photos.light, &render.light(&material), cells)
+    });
+    let Some(best) = least(&residuals) else {
         return SubsurfaceFit::Blind {
             reason: "neither the photos nor the renders show flash light on the material"
                 .to_string(),
         };
     };
+    // Both neighbours of the least point are rendered (or off the grid),
+    // which is all the parabola reads.
+    let filled: Vec<f64> = residuals.iter().map(|r| r.unwrap_or(f64::NAN)).collect();
     SubsurfaceFit::Measured {
-        value: refined(&GRID, &residuals, best),
-        residual: residuals[best],
+        value: refined(&GRID, &filled, best),
+        residual: filled[best],
         residual_without: residuals[0],
         curve: GRID
             .iter()
             .zip(&residuals)
-            .map(|(&g, &r)| [f64::from(g), r])
+            .filter_map(|(&g, r)| Some([f64::from(g), (*r)?]))
             .collect(),
         cells: cells.len(),
         seconds: t.elapsed().as_secs_f64(),
@@ -321,6 +323,10 @@ pub struct FlashRender<'a> {
     pub panel: Option<&'a Panel>,
     pub camera: PinholeCamera,
     pub flashes: &'a [PointLight],
+    /// The pixels (cells, row-major) rendered; `None` for all. The
+    /// measurement compares only the cells wholly of its materials, so the
+    /// rest of the object is left black rather than rendered.
+    pub cells: Option<&'a [usize]>,
     /// Path-tracing samples per pixel.
     pub samples: u32,
     pub seed: u64,
@@ -350,14 +356,24 @@ impl FlashRender<'_> {
             max_depth: 8,
             clamp_indirect: DEFAULT_CLAMP_INDIRECT,
         };
-        pass.render(
-            self.samples,
-            PassKey {
-                seed: self.seed,
-                position: 0,
-                pass: 0,
-            },
-        )
+        let key = PassKey {
+            seed: self.seed,
+            position: 0,
+            pass: 0,
+        };
+        match self.cells {
+            None => pass.render(self.samples, key),
+            Some(cells) => {
+                let (w, h) = (self.camera.intrinsics.width, self.camera.intrinsics.height);
+                let mut keep = vec![false; w as usize * h as usize];
+                for &k in cells {
+                    if let Some(v) = keep.get_mut(k) {
+                        *v = true;
+                    }
+                }
+                pass.render_where(self.samples, key, |i| keep[i])
+            }
+        }
     }
 
     /// Per flash, [`Self::images`] summed over the channels, as
@@ -374,6 +390,54 @@ impl FlashRender<'_> {
             })
             .collect()
     }
+}
+
+/// The residuals of a grid of `len` points, `residual(g)` evaluated only
+/// where the search needs it (`None` elsewhere): `start` and its
+/// neighbours, then the unrendered neighbour of the least residual so far,
+/// until the least has both neighbours rendered (or is at the grid's end).
+/// On a curve with one minimum that is the whole grid's least point. Where
+/// the first three give no finite residual, every point is rendered.
+pub fn descend(
+    len: usize,
+    start: usize,
+    mut residual: impl FnMut(usize) -> f64,
+) -> Vec<Option<f64>> {
+    let mut r: Vec<Option<f64>> = vec![None; len];
+    let start = start.min(len.saturating_sub(1));
+    let first = start.saturating_sub(1)..(start + 2).min(len);
+    for (g, v) in r.iter_mut().enumerate().take(first.end).skip(first.start) {
+        *v = Some(residual(g));
+    }
+    if least(&r).is_none() {
+        for (g, v) in r.iter_mut().enumerate() {
+            if v.is_none() {
+                *v = Some(residual(g));
+            }
+        }
+        return r;
+    }
+    while let Some(best) = least(&r) {
+        let next = [best.checked_sub(1), Some(best + 1)]
+            .into_iter()
+            .flatten()
+            .find(|&g| g < len && r[g].is_none());
+        match next {
+            Some(g) => r[g] = Some(residual(g)),
+            None => break,
+        }
+    }
+    r
+}
+
+/// The grid point with the least finite residual among those rendered.
+fn least(residuals: &[Option<f64>]) -> Option<usize> {
+    residuals
+        .iter()
+        .enumerate()
+        .filter_map(|(g, r)| Some((g, (*r).filter(|r| r.is_finite())?)))
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .map(|(g, _)| g)
 }
 
 /// Root-mean-square difference, over `cells` and flashes, of each flash's
@@ -428,6 +492,40 @@ mod tests {
         assert_eq!(refined(&grid, &[0.1, 0.2, 0.3, 0.4], 0), 0.0);
         // A flat triple keeps the grid point.
         assert_eq!(refined(&grid, &[0.2, 0.2, 0.2, 0.3], 1), 0.1);
+    }
+
+    #[test]
+    fn the_downhill_search_finds_the_grids_least_point_without_rendering_it_all() {
+        for minimum in 0..8usize {
+            let curve = |g: usize| (g as f64 - minimum as f64).powi(2) + 1.0;
+            let mut calls = 0;
+            let r = descend(8, START, |g| {
+                calls += 1;
+                curve(g)
+            });
+            assert_eq!(least(&r), Some(minimum));
+            // Each point at most once, the neighbours of the least rendered.
+            assert_eq!(calls, r.iter().flatten().count());
+            assert!(minimum == 0 || r[minimum - 1].is_some());
+            assert!(minimum == 7 || r[minimum + 1].is_some());
+            // From 0.3: three renders, then one per step downhill, plus the
+            // far neighbour of the least.
+            let steps = minimum.abs_diff(START).saturating_sub(1);
+            let far = usize::from(minimum != START && minimum != 0 && minimum != 7);
+            assert_eq!(calls, 3 + steps + far, "minimum {minimum}");
+            assert!(calls < 8);
+        }
+    }
+
+    #[test]
+    fn the_search_renders_every_point_where_its_start_shows_nothing_and_survives_tiny_grids() {
+        let r = descend(8, START, |g| if g < 5 { f64::NAN } else { g as f64 });
+        assert!(r.iter().all(Option::is_some));
+        assert_eq!(least(&r), Some(5));
+        assert!(descend(0, START, |_| 1.0).is_empty());
+        assert_eq!(descend(1, START, |_| 2.0), vec![Some(2.0)]);
+        let all_nan = descend(8, START, |_| f64::NAN);
+        assert_eq!(least(&all_nan), None);
     }
 
     #[test]
@@ -494,6 +592,7 @@ mod tests {
             panel: None,
             camera,
             flashes: &flashes,
+            cells: None,
             samples: 512,
             seed: 1234,
         }
@@ -520,6 +619,41 @@ mod tests {
     }
 
     #[test]
+    fn rendering_only_the_measured_cells_gives_them_the_whole_renders_values() {
+        let (mesh, camera, flashes) = sphere();
+        let object = ObjectGeometry::new(&mesh);
+        let material = Material {
+            basecolor: Vec3::splat(0.5),
+            subsurface: 0.3,
+            ..Material::WHITE_DIFFUSE
+        };
+        let render = |cells| {
+            FlashRender {
+                object: &object,
+                panel: None,
+                camera,
+                flashes: &flashes,
+                cells,
+                samples: 16,
+                seed: 3,
+            }
+            .light(&material)
+        };
+        let whole = render(None);
+        let cells: Vec<usize> = (0..24 * 24).filter(|k| k % 7 == 0).collect();
+        let some = render(Some(&cells));
+        for (w, s) in whole.iter().zip(&some) {
+            for k in 0..24 * 24 {
+                let expected = if k % 7 == 0 { w[k] } else { 0.0 };
+                assert_eq!(s[k], expected, "cell {k}");
+            }
+        }
+        // The sphere fills the middle: a kept cell there (301 = 7 x 43,
+        // row 12, column 13) carries the flashes' light.
+        assert!(some.iter().map(|l| l[301]).sum::<f64>() > 0.0);
+    }
+
+    #[test]
     fn a_scattering_sphere_is_measured_near_the_subsurface_it_was_rendered_with() {
         let (mesh, photos, cells) = photos_at(0.3);
         assert!(cells.len() > 60, "{} cells", cells.len());
@@ -534,10 +668,27 @@ mod tests {
             panic!("blind: {fit:?}");
         };
         assert!((value - 0.3).abs() <= 0.08, "measured {value}");
-        assert!(
-            residual_without > 2.0 * residual,
-            "{residual_without} vs {residual}"
-        );
+        // The search stops before it reaches 0 here; no scattering is
+        // rendered to compare.
+        let without = residual_without.unwrap_or_else(|| {
+            let object = ObjectGeometry::new(&mesh);
+            let render = FlashRender {
+                object: &object,
+                panel: None,
+                camera: photos.camera,
+                flashes: &photos.flashes,
+                cells: None,
+                samples: TEST_OPTIONS.samples,
+                seed: TEST_OPTIONS.seed,
+            };
+            let opaque = Material {
+                basecolor: Vec3::splat(0.5),
+                roughness: 0.5,
+                ..Material::WHITE_DIFFUSE
+            };
+            share_residual(&photos.light, &render.light(&opaque), &cells)
+        });
+        assert!(without > 2.0 * residual, "{without} vs {residual}");
     }
 
     #[test]

@@ -133,6 +133,18 @@ const ROULETTE_FROM: u32 = 3;
 impl Pass<'_> {
     /// Renders every slot; rows run in parallel on the current rayon pool.
     pub fn render(&self, samples: u32, key: PassKey) -> PassImages {
+        self.render_where(samples, key, |_| true)
+    }
+
+    /// Renders every slot at the pixels (row-major index) `wanted` keeps,
+    /// leaving the others black. Each pixel's random numbers depend on the
+    /// pixel alone, so a kept pixel reads as in [`Self::render`].
+    pub fn render_where(
+        &self,
+        samples: u32,
+        key: PassKey,
+        wanted: impl Fn(usize) -> bool + Sync,
+    ) -> PassImages {
         let (w, h) = (self.camera.intrinsics.width, self.camera.intrinsics.height);
         let samples = samples.max(1);
         let rows: Vec<(Vec<Vec3>, u64)> = (0..h)
@@ -143,6 +155,9 @@ impl Pass<'_> {
                 let mut sample = vec![Vec3::ZERO; self.slots];
                 for x in 0..w {
                     let pixel = y as u64 * w as u64 + x as u64;
+                    if !wanted(pixel as usize) {
+                        continue;
+                    }
                     let mut rng = PixelRng::new(key.seed, key.position, key.pass, pixel);
                     let acc = &mut row[x as usize * self.slots..(x as usize + 1) * self.slots];
                     for _ in 0..samples {
