@@ -23,11 +23,11 @@
 //! everywhere and the shares flatten towards the flashes' ratio. The
 //! subsurface whose renders leave the least root-mean-square share
 //! difference, refined by a parabola through its grid neighbours, is the
-//! measurement. The grid is searched downhill from 0.3 rather than
-//! rendered whole ([`descend`]): the candidates share their random
-//! numbers, so the residual falls smoothly to one minimum, and the search
-//! finds the whole grid's least point with about 5 renders of 8. All candidates are rendered with the same random numbers,
-//! so that their differences are the material's and not the noise's.
+//! measurement. All candidates are rendered with the same random numbers,
+//! so that their differences are the material's and not the noise's; the
+//! residual then falls smoothly to one minimum, so the grid is searched
+//! downhill from 0.3 rather than rendered whole ([`descend`], about 5
+//! renders of 8), and only the cells compared are traced.
 //!
 //! What limits it: the renders take the basecolor as given (the caller's:
 //! the networks' median), and a brighter basecolor carries light as far as
