@@ -37,9 +37,9 @@
 //! the materials around them are rendered as if they were them.
 //!
 //! Blind, with the reason recorded: fewer than two flash views with a
-//! calibrated intensity at the reference position, or fewer than
+//! calibrated intensity at the reference position, fewer than
 //! [`ScatteringOptions::min_cells`] unclipped cells wholly of the
-//! material.
+//! material, or a black basecolor (every subsurface renders alike).
 
 use crate::pipeline::inputs::SceneInputs;
 use crate::refine::observe::clip_level;
@@ -295,6 +295,20 @@ pub fn measure(
                 .to_string(),
         };
     };
+    // A black basecolor carries no light under the surface: every
+    // subsurface renders alike, and the least point would be arbitrary.
+    let rendered: Vec<f64> = residuals.iter().flatten().copied().collect();
+    let spread = rendered.iter().copied().fold(f64::NEG_INFINITY, f64::max)
+        - rendered.iter().copied().fold(f64::INFINITY, f64::min);
+    if rendered.len() > 1 && spread.abs() <= 1e-9 {
+        return SubsurfaceFit::Blind {
+            reason: format!(
+                "every subsurface renders the same light on the material (basecolor {:.2}, \
+                 {:.2}, {:.2}): it carries none under the surface",
+                basecolor.x, basecolor.y, basecolor.z
+            ),
+        };
+    }
     // Both neighbours of the least point are rendered (or off the grid),
     // which is all the parabola reads.
     let filled: Vec<f64> = residuals.iter().map(|r| r.unwrap_or(f64::NAN)).collect();
@@ -577,10 +591,15 @@ mod tests {
     /// Photos of the sphere rendered at `subsurface` with other random
     /// numbers than the measurement's, and every cell that shows it.
     fn photos_at(subsurface: f32) -> (Mesh, FlashPhotos, Vec<usize>) {
+        photos_with(Vec3::splat(0.5), subsurface)
+    }
+
+    /// The same with `basecolor`.
+    fn photos_with(basecolor: Vec3, subsurface: f32) -> (Mesh, FlashPhotos, Vec<usize>) {
         let (mesh, camera, flashes) = sphere();
         let object = ObjectGeometry::new(&mesh);
         let material = Material {
-            basecolor: Vec3::splat(0.5),
+            basecolor,
             roughness: 0.5,
             metallic: 0.0,
             transmission: 0.0,
@@ -616,6 +635,28 @@ mod tests {
             camera,
         };
         (mesh, photos, cells)
+    }
+
+    #[test]
+    fn subsurface_on_a_black_basecolor_is_blind_with_the_reason() {
+        // A black scattering material shows its specular lobe alone.
+        let (mesh, photos, cells) = photos_with(Vec3::ZERO, 0.5);
+        assert!(
+            cells.len() >= TEST_OPTIONS.min_cells,
+            "{} cells",
+            cells.len()
+        );
+        let fit = measure(&mesh, &photos, &cells, Vec3::ZERO, 0.5, &TEST_OPTIONS);
+        assert!(
+            matches!(&fit, SubsurfaceFit::Blind { reason } if reason.contains("every subsurface")),
+            "{fit:?}"
+        );
+        // A grey basecolor on the same photos is measured, finitely.
+        let grey = measure(&mesh, &photos, &cells, Vec3::splat(0.5), 0.5, &TEST_OPTIONS);
+        assert!(
+            grey.value().is_some_and(|v| (0.0..=1.0).contains(&v)),
+            "{grey:?}"
+        );
     }
 
     #[test]
