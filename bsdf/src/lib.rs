@@ -135,7 +135,7 @@ pub use fresnel::{fresnel_dielectric_cos, specular_ior};
 pub use ggx::{ggx_d, ggx_g1};
 pub use lobe::{BsdfEval, BsdfSample, LobeKind};
 pub use material::Material;
-pub use principled::{Bsdf, DELTA_ALPHA};
+pub use principled::{Bsdf, CLOSURE_WEIGHT_CUTOFF, DELTA_ALPHA};
 pub use subsurface::{
     extinction, single_scattering_albedo, SubsurfaceExit, SubsurfaceMedium, BSSRDF_MIN_RADIUS,
 };

@@ -13,7 +13,7 @@ use crate::material::{Material, IOR, SPECULAR};
 use glam::Vec3;
 
 /// Cycles' `CLOSURE_WEIGHT_CUTOFF`: lobes weighted below it are dropped.
-const CLOSURE_WEIGHT_CUTOFF: f32 = 1e-5;
+pub const CLOSURE_WEIGHT_CUTOFF: f32 = 1e-5;
 /// GGX alpha at or below which Cycles treats a microfacet lobe as a perfect
 /// mirror / smooth glass (its test is alpha_x alpha_y <= 1e-7): roughness
 /// below about 0.0178.

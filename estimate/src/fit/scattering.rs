@@ -26,8 +26,9 @@
 //! measurement. All candidates are rendered with the same random numbers,
 //! so that their differences are the material's and not the noise's; the
 //! residual then falls smoothly to one minimum, so the grid is searched
-//! downhill from 0.3 rather than rendered whole ([`descend`], about 5
-//! renders of 8), and only the cells compared are traced.
+//! downhill from 0.3 (with 0, the Burley diffuse, always rendered) rather
+//! than rendered whole ([`descend`], about 5 renders of 8), and only the
+//! cells compared are traced.
 //!
 //! What limits it: the renders take the basecolor as given (the caller's:
 //! the networks' median), and a brighter basecolor carries light as far as
@@ -45,6 +46,7 @@ use crate::pipeline::inputs::SceneInputs;
 use crate::refine::observe::clip_level;
 use glam::Vec3;
 use matscan_bsdf::material::{Material, DEFAULT_SUBSURFACE_RADIUS};
+use matscan_bsdf::CLOSURE_WEIGHT_CUTOFF;
 use matscan_scan::camera::PinholeCamera;
 use matscan_scan::mesh::Mesh;
 use matscan_scan::Bundle;
@@ -97,10 +99,9 @@ pub enum SubsurfaceFit {
         /// Root-mean-square difference of the flashes' shares at `value`'s
         /// grid point.
         residual: f64,
-        /// The same at no subsurface, where the search rendered it: how
-        /// much better scattering explains the photos.
-        #[serde(default, skip_serializing_if = "Option::is_none")]
-        residual_without: Option<f64>,
+        /// The same at no subsurface: how much better scattering explains
+        /// the photos.
+        residual_without: f64,
         /// Every rendered subsurface and its residual, in grid order: how
         /// sharply the photos single out `value`.
         curve: Vec<[f64; 2]>,
@@ -278,6 +279,17 @@ pub fn measure(
     } else {
         0.5
     };
+    // So dark a basecolor drops the diffuse and subsurface lobes
+    // (`CLOSURE_WEIGHT_CUTOFF`): every subsurface would render alike.
+    if basecolor.element_sum() / 3.0 <= CLOSURE_WEIGHT_CUTOFF {
+        return SubsurfaceFit::Blind {
+            reason: format!(
+                "a black basecolor ({:.2}, {:.2}, {:.2}) carries no light under the surface: \
+                 every subsurface renders alike",
+                basecolor.x, basecolor.y, basecolor.z
+            ),
+        };
+    }
     let residuals = descend(GRID.len(), START, |g| {
         let material = Material {
             basecolor,
@@ -295,27 +307,13 @@ pub fn measure(
                 .to_string(),
         };
     };
-    // A black basecolor carries no light under the surface: every
-    // subsurface renders alike, and the least point would be arbitrary.
-    let rendered: Vec<f64> = residuals.iter().flatten().copied().collect();
-    let spread = rendered.iter().copied().fold(f64::NEG_INFINITY, f64::max)
-        - rendered.iter().copied().fold(f64::INFINITY, f64::min);
-    if rendered.len() > 1 && spread.abs() <= 1e-9 {
-        return SubsurfaceFit::Blind {
-            reason: format!(
-                "every subsurface renders the same light on the material (basecolor {:.2}, \
-                 {:.2}, {:.2}): it carries none under the surface",
-                basecolor.x, basecolor.y, basecolor.z
-            ),
-        };
-    }
     // Both neighbours of the least point are rendered (or off the grid),
     // which is all the parabola reads.
     let filled: Vec<f64> = residuals.iter().map(|r| r.unwrap_or(f64::NAN)).collect();
     SubsurfaceFit::Measured {
         value: refined(&GRID, &filled, best),
         residual: filled[best],
-        residual_without: residuals[0],
+        residual_without: filled[0],
         curve: GRID
             .iter()
             .zip(&residuals)
@@ -407,11 +405,15 @@ impl FlashRender<'_> {
 }
 
 /// The residuals of a grid of `len` points, `residual(g)` evaluated only
-/// where the search needs it (`None` elsewhere): `start` and its
-/// neighbours, then the unrendered neighbour of the least residual so far,
-/// until the least has both neighbours rendered (or is at the grid's end).
-/// On a curve with one minimum that is the whole grid's least point. Where
-/// the first three give no finite residual, every point is rendered.
+/// where the search needs it (`None` elsewhere): the first point, `start`
+/// and its neighbours, then the unrendered neighbour of the least residual
+/// so far, until the least has both neighbours rendered (or is at the
+/// grid's end). On a curve with one minimum past the first point that is
+/// the whole grid's least point. The first point is always rendered
+/// because it is another model (subsurface 0 is the Burley diffuse, any
+/// more the random walk), so the curve may step between it and the rest;
+/// it is also the reference "without". Where the first renders give no
+/// finite residual, every point is rendered.
 pub fn descend(
     len: usize,
     start: usize,
@@ -420,8 +422,10 @@ pub fn descend(
     let mut r: Vec<Option<f64>> = vec![None; len];
     let start = start.min(len.saturating_sub(1));
     let first = start.saturating_sub(1)..(start + 2).min(len);
-    for (g, v) in r.iter_mut().enumerate().take(first.end).skip(first.start) {
-        *v = Some(residual(g));
+    for (g, v) in r.iter_mut().enumerate() {
+        if g == 0 || first.contains(&g) {
+            *v = Some(residual(g));
+        }
     }
     if least(&r).is_none() {
         for (g, v) in r.iter_mut().enumerate() {
@@ -522,18 +526,26 @@ mod tests {
             assert_eq!(calls, r.iter().flatten().count());
             assert!(minimum == 0 || r[minimum - 1].is_some());
             assert!(minimum == 7 || r[minimum + 1].is_some());
-            // From 0.3: three renders, then one per step downhill, plus the
-            // far neighbour of the least.
-            let steps = minimum.abs_diff(START).saturating_sub(1);
-            let far = usize::from(minimum != START && minimum != 0 && minimum != 7);
-            assert_eq!(calls, 3 + steps + far, "minimum {minimum}");
-            assert!(calls < 8);
+            assert!(r[0].is_some(), "the first point is always rendered");
+            // 0 and 0.2 to 0.4 first, then one per step downhill and the far
+            // neighbour of the least (at 0.1 the tie with 0 walks through 0).
+            let expected = [5, 5, 5, 4, 5, 6, 7, 7];
+            assert_eq!(calls, expected[minimum], "minimum {minimum}");
         }
     }
 
     #[test]
     fn the_search_renders_every_point_where_its_start_shows_nothing_and_survives_tiny_grids() {
         let r = descend(8, START, |g| if g < 5 { f64::NAN } else { g as f64 });
+        // A step at the first point (another model) is found, not walked past.
+        let step = descend(8, START, |g| {
+            if g == 0 {
+                0.5
+            } else {
+                (g as f64 - 3.0).abs() + 1.0
+            }
+        });
+        assert_eq!(least(&step), Some(0));
         assert!(r.iter().all(Option::is_some));
         assert_eq!(least(&r), Some(5));
         assert!(descend(0, START, |_| 1.0).is_empty());
@@ -709,27 +721,10 @@ mod tests {
             panic!("blind: {fit:?}");
         };
         assert!((value - 0.3).abs() <= 0.08, "measured {value}");
-        // The search stops before it reaches 0 here; no scattering is
-        // rendered to compare.
-        let without = residual_without.unwrap_or_else(|| {
-            let object = ObjectGeometry::new(&mesh);
-            let render = FlashRender {
-                object: &object,
-                panel: None,
-                camera: photos.camera,
-                flashes: &photos.flashes,
-                cells: None,
-                samples: TEST_OPTIONS.samples,
-                seed: TEST_OPTIONS.seed,
-            };
-            let opaque = Material {
-                basecolor: Vec3::splat(0.5),
-                roughness: 0.5,
-                ..Material::WHITE_DIFFUSE
-            };
-            share_residual(&photos.light, &render.light(&opaque), &cells)
-        });
-        assert!(without > 2.0 * residual, "{without} vs {residual}");
+        assert!(
+            residual_without > 2.0 * residual,
+            "{residual_without} vs {residual}"
+        );
     }
 
     #[test]
