@@ -406,8 +406,8 @@ impl FlashRender<'_> {
 
 /// The residuals of a grid of `len` points, `residual(g)` evaluated only
 /// where the search needs it (`None` elsewhere): the first point, `start`
-/// and its neighbours, then the unrendered neighbour of the least residual
-/// so far, until the least has both neighbours rendered (or is at the
+/// and its neighbours, then the unrendered neighbour of the least rendered
+/// residual, until the least has both neighbours rendered (or is at the
 /// grid's end). On a curve with one minimum past the first point that is
 /// the whole grid's least point. The first point is always rendered
 /// because it is another model (subsurface 0 is the Burley diffuse, any
