@@ -38,7 +38,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let manifest = CalibManifest::read(&dir)?;
     let t = Instant::now();
     let cal = calibrate_camera(&dir, &manifest, &Acceptance::default())?;
-    let projector = matscan_rigcal::projector::calibrate_projector(&dir, &manifest, &cal)?;
+    let projector = matscan_rigcal::projector::calibrate_projector(&dir, &cal)?;
     let seconds = t.elapsed().as_secs_f64();
     let (truth, _) = Manifest::read_rig(&dir.join(TRUTH_RIG))?;
     let measured = matscan_rigcal::write::rig_manifest(&cal, projector.as_ref(), None, "probe");

@@ -8,8 +8,12 @@
 //! point's median errors. The figures are in `docs/results.md`.
 //!
 //! ```sh
-//! cargo run --release -p matscan-rigcal --example board_design
+//! cargo run --release -p matscan-rigcal --example board_design [NOISE_PX [NAME]]
 //! ```
+//!
+//! `NOISE_PX` replaces the 0.05 px (a short-focus rig's steep hand-held
+//! boards render at about 0.1 px); `NAME` runs only the designs whose name
+//! holds it.
 //!
 //! A design is the shots per position, the hand-held tilt range, the
 //! hand-held distance range (times the working distance), the reference
@@ -17,7 +21,8 @@
 //! `matscan_sim::calib_target::reference_placement` chooses, every camera
 //! near 45 degrees), the board's inner corners, the photos of each resting
 //! placement (repeated photos of a board that does not move, each with
-//! its own noise) and whether the mount's second seat
+//! its own noise), the frames averaged into each such photo (its noise
+//! over their root) and whether the mount's second seat
 //! (`matscan_sim::calib_target::seat_placement`) is photographed too.
 use glam::{DMat4, DQuat, DVec2, DVec3};
 use matscan_rigcal::camera::{solve_camera, Acceptance};
@@ -50,6 +55,9 @@ struct Design {
     photos_per_seat: usize,
     /// The mount's second seat photographed at every position too.
     seat: bool,
+    /// Frames averaged into each photo of a resting placement: its corners
+    /// carry the noise over the root of this.
+    frames: usize,
 }
 
 struct Errors {
@@ -58,7 +66,7 @@ struct Errors {
     principal_px: f64,
 }
 
-const DESIGNS: [Design; 12] = [
+const DESIGNS: [Design; 17] = [
     design(
         "lean 25 deg about x, 9x6",
         8,
@@ -167,6 +175,36 @@ const DESIGNS: [Design; 12] = [
         4,
         true,
     ),
+    averaged(
+        "seat, one photo of 4 frames each, 8 shots",
+        8,
+        (10.0, 40.0),
+        4,
+    ),
+    averaged(
+        "seat, one photo of 4 frames each, 12 shots tilted 20 to 50 deg",
+        12,
+        (20.0, 50.0),
+        4,
+    ),
+    averaged(
+        "seat, one photo of 16 frames each, 8 shots",
+        8,
+        (10.0, 40.0),
+        16,
+    ),
+    averaged(
+        "seat, one photo of 16 frames each, 12 shots tilted 20 to 50 deg",
+        12,
+        (20.0, 50.0),
+        16,
+    ),
+    averaged(
+        "seat, one photo of 16 frames each, 16 shots tilted 20 to 50 deg",
+        16,
+        (20.0, 50.0),
+        16,
+    ),
 ];
 
 /// A design held at 0.8 to 1.1 times the working distance.
@@ -188,6 +226,17 @@ const fn design(
         corners,
         photos_per_seat,
         seat,
+        frames: 1,
+    }
+}
+
+/// The kept design (13 x 9, every camera near 45 degrees, the second
+/// seat) with each resting placement photographed once as the mean of
+/// `frames` frames, and `shots` photos per position.
+const fn averaged(name: &'static str, shots: usize, tilt_deg: (f64, f64), frames: usize) -> Design {
+    Design {
+        frames,
+        ..design(name, shots, tilt_deg, None, (13, 9), 1, true)
     }
 }
 
@@ -199,7 +248,7 @@ fn gauss(rng: &mut Pcg64) -> f64 {
 
 /// One draw of `design` on the rig of `seed`; `None` when the solver
 /// refuses it.
-fn trial(seed: u64, draw: u64, design: &Design) -> Option<Errors> {
+fn trial(seed: u64, draw: u64, design: &Design, noise_px: f64) -> Option<Errors> {
     let (rig, _) = board_rig(&BoardBundleOptions {
         seed,
         ..BoardBundleOptions::default()
@@ -247,13 +296,17 @@ fn trial(seed: u64, draw: u64, design: &Design) -> Option<Errors> {
         }
         for (s, (placement, b2w)) in placed.into_iter().enumerate() {
             let pose_c = Pose::from_matrix(&(w2c * b2w));
+            let noise = match placement {
+                BoardPlacement::Held => noise_px,
+                _ => noise_px / (design.frames as f64).sqrt(),
+            };
             let corners: Vec<Corner> = (0..board.rows)
                 .flat_map(|j| (0..board.cols).map(move |i| (i, j)))
                 .map(|(i, j)| Corner {
                     i,
                     j,
                     pixel: project(&rig.intrinsics, &pose_c, board.corner(i, j))
-                        + DVec2::new(NOISE_PX * gauss(&mut rng), NOISE_PX * gauss(&mut rng)),
+                        + DVec2::new(noise * gauss(&mut rng), noise * gauss(&mut rng)),
                 })
                 .collect();
             detections.push(corners);
@@ -308,10 +361,21 @@ fn median(mut v: Vec<f64>) -> f64 {
 }
 
 fn main() {
+    // Arguments: the corner noise in pixels (default 0.05) and a piece of
+    // the designs' names to run only those.
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let noise_px = args
+        .first()
+        .and_then(|a| a.parse::<f64>().ok())
+        .unwrap_or(NOISE_PX);
+    let only = args.get(1).cloned().unwrap_or_default();
+    println!("corner noise {noise_px} px per coordinate");
     println!("rig | design | worst position, median mm | 90th percentile mm | focal, median % | principal point, median px | refused");
     for seed in [1u64, 2, 3] {
-        for design in &DESIGNS {
-            let found: Vec<Errors> = (0..DRAWS).filter_map(|d| trial(seed, d, design)).collect();
+        for design in DESIGNS.iter().filter(|d| d.name.contains(only.as_str())) {
+            let found: Vec<Errors> = (0..DRAWS)
+                .filter_map(|d| trial(seed, d, design, noise_px))
+                .collect();
             let mut positions: Vec<f64> = found.iter().map(|e| e.worst_position_mm).collect();
             positions.sort_by(f64::total_cmp);
             let p90 = positions

@@ -93,10 +93,21 @@ pub struct CameraReport {
     pub problems: Vec<String>,
     /// Shots to take again.
     pub retake: Vec<PathBuf>,
+    /// Hand-held shots left out because the detector found no complete
+    /// board in them, each with the detector's reason.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub skipped: Vec<SkippedShot>,
     pub shots: Vec<ShotReport>,
     /// Where each further seat of the mount holds the board.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub seats: Vec<SeatReport>,
+}
+
+/// A hand-held shot the calibration left out.
+#[derive(Debug, Clone, Serialize)]
+pub struct SkippedShot {
+    pub file: PathBuf,
+    pub reason: String,
 }
 
 /// Where a seat of the mount holds the board, as the calibration found it.
@@ -125,6 +136,10 @@ pub struct CameraCalibration {
     /// Each shot's grey image, [`crate::sheet::TILE`] wide, in the
     /// report's order (none when solved from corners alone).
     pub thumbnails: Vec<GrayImage>,
+    /// The bundle's manifest less the skipped shots: the shots the report,
+    /// `corners` and `poses` follow, which the projector's calibration
+    /// reads beside them.
+    pub manifest: CalibManifest,
 }
 
 /// Every shot with its position's index, positions in order.
@@ -167,9 +182,12 @@ pub fn read_shot(path: &Path) -> Result<RgbRaster, RigcalError> {
 }
 
 /// Calibrates the camera from the bundle in `dir` (its `calib.toml` is
-/// `manifest`). Fails on a photo without a complete board, on too few or
-/// edge-on shots, or when the shots do not determine the camera; a
-/// calibration that explains the photos poorly is returned with
+/// `manifest`). A hand-held shot without a complete board is left out and
+/// named in `report.skipped`: the other hand-held shots stand for it, as
+/// long as enough remain. Fails on a resting board's photo (the reference
+/// or a seat, on which a position's pose rests) without a complete board,
+/// on too few or edge-on shots, or when the shots do not determine the
+/// camera; a calibration that explains the photos poorly is returned with
 /// `report.accepted` false and the reasons.
 pub fn calibrate_camera(
     dir: &Path,
@@ -196,8 +214,27 @@ pub fn calibrate_camera(
         })
         .collect();
     let mut detections = Vec::with_capacity(found.len());
-    for r in found {
-        detections.push(r?);
+    let mut skipped = Vec::new();
+    let mut kept = manifest.clone();
+    for position in &mut kept.positions {
+        position.shots.clear();
+    }
+    for (r, (p, shot)) in found.into_iter().zip(&shots) {
+        match r {
+            Ok(d) => {
+                detections.push(d);
+                kept.positions[*p].shots.push((*shot).clone());
+            }
+            Err(RigcalError::BoardNotFound { reason, .. })
+                if shot.placement == BoardPlacement::Held =>
+            {
+                skipped.push(SkippedShot {
+                    file: shot.file.clone(),
+                    reason,
+                });
+            }
+            Err(e) => return Err(e),
+        }
     }
     let Some(&((width, height), _, _)) = detections.first() else {
         return Err(RigcalError::TooFewShots {
@@ -205,7 +242,7 @@ pub fn calibrate_camera(
             needed: acceptance.min_shots.max(1),
         });
     };
-    for ((size, _, _), (_, shot)) in detections.iter().zip(&shots) {
+    for ((size, _, _), (_, shot)) in detections.iter().zip(shots_of(&kept)) {
         if *size != (width, height) {
             return Err(RigcalError::SizeMismatch {
                 path: dir.join(&shot.file),
@@ -217,8 +254,9 @@ pub fn calibrate_camera(
         }
     }
     let (corners, thumbnails) = detections.into_iter().map(|(_, c, t)| (c, t)).unzip();
-    let mut calibration = solve_camera(dir, manifest, corners, (width, height), acceptance)?;
+    let mut calibration = solve_camera(dir, &kept, corners, (width, height), acceptance)?;
     calibration.thumbnails = thumbnails;
+    calibration.report.skipped = skipped;
     Ok(calibration)
 }
 
@@ -526,11 +564,13 @@ fn judge(
             accepted: problems.is_empty(),
             problems,
             retake,
+            skipped: Vec::new(),
             shots: reports,
             seats,
         },
         corners: detections.into_iter().zip(reprojected).collect(),
         poses: refined.poses,
         thumbnails: Vec::new(),
+        manifest: manifest.clone(),
     }
 }

@@ -24,7 +24,7 @@ use crate::model::{project, Pose};
 use crate::refine::{least_squares, refine, ShotPoints, PROJECTOR_FIXED};
 use crate::zhang;
 use glam::{DMat4, DQuat, DVec2, DVec3};
-use matscan_scan::calib_bundle::{graycode_file, CalibManifest, ProjectorSize};
+use matscan_scan::calib_bundle::{graycode_file, ProjectorSize};
 use matscan_scan::camera::Intrinsics;
 use matscan_scan::{gray_decode, GrayAxis};
 use rayon::prelude::*;
@@ -83,14 +83,14 @@ struct Decoded {
     finest: u32,
 }
 
-/// Calibrates the projector from the bundle's Gray-code shots, given the
-/// camera calibrated from the same bundle (whose corners and board poses
-/// it reuses). `Ok(None)` when the bundle has no Gray codes.
+/// Calibrates the projector from the Gray-code shots of the bundle in
+/// `dir`, given the camera calibrated from it (whose shots, corners and
+/// board poses it reuses). `Ok(None)` when the bundle has no Gray codes.
 pub fn calibrate_projector(
     dir: &Path,
-    manifest: &CalibManifest,
     camera: &CameraCalibration,
 ) -> Result<Option<ProjectorCalibration>, RigcalError> {
+    let manifest = &camera.manifest;
     let Some(size) = manifest.projector else {
         return Ok(None);
     };

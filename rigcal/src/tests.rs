@@ -11,6 +11,7 @@ use crate::zhang::homography;
 use glam::{DMat4, DQuat, DVec2, DVec3};
 use matscan_scan::calib_bundle::{BoardPlacement, CalibManifest, CalibPosition, Chessboard, Shot};
 use matscan_scan::camera::Intrinsics;
+use matscan_scan::image_io::{write_rgb_exr, Precision};
 use matscan_scan::raster::RgbRaster;
 use matscan_scan::Manifest;
 use std::path::{Path, PathBuf};
@@ -383,6 +384,38 @@ fn the_simulated_rigs_board_photos_calibrate_its_camera() {
     let (written, _) = Manifest::read_rig(&rig.path).unwrap();
     assert_eq!(written.positions[1].lights, truth.positions[1].lights);
     assert_eq!(written.camera.width, 512);
+
+    // A hand-held shot without a board is left out with the detector's
+    // reason; the rest still calibrate the camera.
+    let held = m.positions[1]
+        .shots
+        .iter()
+        .find(|s| s.placement == BoardPlacement::Held)
+        .unwrap()
+        .file
+        .clone();
+    let blank = RgbRaster::filled(512, 512, [0.4f32; 3]);
+    write_rgb_exr(&bundle.join(&held), &blank, Precision::Half).unwrap();
+    let without = calibrate_camera(&bundle, &m, &Acceptance::default()).unwrap();
+    assert_eq!(without.report.skipped.len(), 1);
+    assert_eq!(without.report.skipped[0].file, held);
+    assert!(!without.report.skipped[0].reason.is_empty());
+    assert_eq!(without.report.shots.len(), cal.report.shots.len() - 1);
+    assert!(without.report.shots.iter().all(|s| s.file != held));
+    assert_eq!(without.poses.len(), without.report.shots.len());
+    assert!(without.manifest.positions[1]
+        .shots
+        .iter()
+        .all(|s| s.file != held));
+    let d = compare(&rig_manifest(&without, None, None, "test"), &truth);
+    assert!(d.focal_percent < 1.0 && d.position < 0.02, "{d:?}");
+    // A resting board's photo without a board is refused, named: the
+    // position's pose rests on it.
+    let reference = m.positions[1].shots[0].file.clone();
+    write_rgb_exr(&bundle.join(&reference), &blank, Precision::Half).unwrap();
+    let e = calibrate_camera(&bundle, &m, &Acceptance::default()).unwrap_err();
+    assert!(matches!(e, RigcalError::BoardNotFound { .. }), "{e}");
+    assert!(e.to_string().contains(reference.to_str().unwrap()), "{e}");
 }
 
 /// The projector from the simulated rig's Gray-code shots; then the same
@@ -394,7 +427,7 @@ fn the_simulated_rigs_gray_codes_calibrate_its_projector() {
     use matscan_scan::calib_bundle::graycode_file;
     use matscan_scan::GrayAxis;
     let (_dir, bundle, m, cal, truth) = rendered(4, 4, 4);
-    let projector = calibrate_projector(&bundle, &m, &cal).unwrap().unwrap();
+    let projector = calibrate_projector(&bundle, &cal).unwrap().unwrap();
     let d = compare(&rig_manifest(&cal, Some(&projector), None, "test"), &truth)
         .projector
         .unwrap();
@@ -426,7 +459,7 @@ fn the_simulated_rigs_gray_codes_calibrate_its_projector() {
             std::fs::copy(&still, code).unwrap();
         }
     }
-    let e = calibrate_projector(&bundle, &m, &cal).unwrap_err();
+    let e = calibrate_projector(&bundle, &cal).unwrap_err();
     assert!(matches!(e, RigcalError::GrayCode { .. }), "{e}");
     assert!(e.to_string().contains(folder.to_str().unwrap()), "{e}");
 }

@@ -100,7 +100,7 @@ pub fn run_rig(a: RigArgs) -> Result<()> {
     let calibration = calibrate_camera(&a.bundle, &manifest, &acceptance)
         .with_context(|| format!("calibrating the camera from {}", a.bundle.display()))?;
     let projector = if calibration.report.accepted {
-        calibrate_projector(&a.bundle, &manifest, &calibration)
+        calibrate_projector(&a.bundle, &calibration)
             .with_context(|| format!("calibrating the projector from {}", a.bundle.display()))?
     } else {
         None
@@ -139,6 +139,13 @@ pub fn run_rig(a: RigArgs) -> Result<()> {
                 (None, true) => ", reference".to_string(),
                 (None, false) => String::new(),
             }
+        );
+    }
+    for s in &r.skipped {
+        println!(
+            "  {} left out: {}; retake it to add its pose",
+            s.file.display(),
+            s.reason
         );
     }
     for seat in &r.seats {
