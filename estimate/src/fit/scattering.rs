@@ -27,8 +27,9 @@
 //! so that their differences are the material's and not the noise's; the
 //! residual then falls smoothly to one minimum, so the grid is searched
 //! downhill from 0.3 (with 0, the Burley diffuse, always rendered) rather
-//! than rendered whole ([`descend`], about 5 renders of 8), and only the
-//! cells compared are traced.
+//! than rendered whole ([`descend`]), first at [`SEARCH_SAMPLES`] per cell
+//! and then at the full count around the coarse search's least point only
+//! ([`search`]), and only the cells compared are traced.
 //!
 //! What limits it: the renders take the basecolor as given (the caller's:
 //! the networks' median), and a brighter basecolor carries light as far as
@@ -65,14 +66,21 @@ pub const GRID: [f32; 8] = [0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.7, 1.0];
 /// The grid point the search starts from ([`descend`]): 0.3.
 pub const START: usize = 3;
 
+/// The coarse search's samples per cell ([`ScatteringOptions::search_samples`]).
+pub const SEARCH_SAMPLES: u32 = 64;
+
 /// How the measurement renders.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ScatteringOptions {
     /// Cells across the reference image; the photos are averaged over
     /// each cell and the renders made at this size.
     pub cells: usize,
-    /// Path-tracing samples per cell.
+    /// Path-tracing samples per cell of the renders the answer rests on.
     pub samples: u32,
+    /// Path-tracing samples per cell of the first, coarse search
+    /// ([`search`]); `samples` or more renders the search once, at
+    /// `samples`.
+    pub search_samples: u32,
     /// Fewest cells wholly of the material (and unclipped) to measure it.
     pub min_cells: usize,
     /// Seed of the renders' random numbers.
@@ -84,6 +92,7 @@ impl Default for ScatteringOptions {
         ScatteringOptions {
             cells: 32,
             samples: 512,
+            search_samples: SEARCH_SAMPLES,
             min_cells: 16,
             seed: 7,
         }
@@ -290,7 +299,7 @@ pub fn measure(
             ),
         };
     }
-    let residuals = descend(GRID.len(), START, |g| {
+    let residual = |samples: u32, g: usize| {
         let material = Material {
             basecolor,
             roughness,
@@ -299,8 +308,19 @@ pub fn measure(
             subsurface: GRID[g],
             subsurface_radius: DEFAULT_SUBSURFACE_RADIUS,
         };
+        let render = FlashRender { samples, ..render };
         share_residual(&photos.light, &render.light(&material), cells)
-    });
+    };
+    let residuals = if options.search_samples < options.samples {
+        search(
+            GRID.len(),
+            START,
+            |g| residual(options.search_samples, g),
+            |g| residual(options.samples, g),
+        )
+    } else {
+        descend(GRID.len(), START, |g| residual(options.samples, g))
+    };
     let Some(best) = least(&residuals) else {
         return SubsurfaceFit::Blind {
             reason: "neither the photos nor the renders show flash light on the material"
@@ -448,6 +468,24 @@ pub fn descend(
     r
 }
 
+/// [`descend`] twice: with the cheap `coarse` residual from `start`, then
+/// with the `fine` one from the coarse search's least point, so the fine
+/// renders are that point, its neighbours and the first point (and any
+/// step further downhill where the coarse search landed beside the fine
+/// minimum). The candidates share their random numbers at either count of
+/// samples, so the coarse curve has the fine one's shape and its noise
+/// moves the least point by a grid step at most; the fine search walks that
+/// step. Returns the fine residuals.
+pub fn search(
+    len: usize,
+    start: usize,
+    coarse: impl FnMut(usize) -> f64,
+    fine: impl FnMut(usize) -> f64,
+) -> Vec<Option<f64>> {
+    let first = least(&descend(len, start, coarse)).unwrap_or(start);
+    descend(len, first, fine)
+}
+
 /// The grid point with the least finite residual among those rendered.
 fn least(residuals: &[Option<f64>]) -> Option<usize> {
     residuals
@@ -555,6 +593,39 @@ mod tests {
     }
 
     #[test]
+    fn the_fine_search_renders_only_around_the_coarse_searchs_least_point() {
+        for minimum in 0..8usize {
+            let curve = |g: usize| (g as f64 - minimum as f64).powi(2) + 1.0;
+            // The coarse curve's noise puts its least point a step off.
+            let off = (minimum + 1).min(7);
+            let coarse = |g: usize| (g as f64 - off as f64).powi(2) + 1.0;
+            let mut fine_calls = Vec::new();
+            let r = search(8, START, coarse, |g| {
+                fine_calls.push(g);
+                curve(g)
+            });
+            assert_eq!(least(&r), Some(minimum), "minimum {minimum}");
+            assert!(r[0].is_some(), "the first point is always rendered");
+            // The first point, the coarse least point and its neighbours,
+            // then the one step downhill to the fine least point and its
+            // far neighbour.
+            let mut expected: Vec<usize> = [0, off.saturating_sub(1), off, off + 1]
+                .into_iter()
+                .chain((minimum != off).then(|| minimum.saturating_sub(1)))
+                .filter(|&g| g < 8)
+                .collect();
+            expected.sort_unstable();
+            expected.dedup();
+            let mut calls = fine_calls.clone();
+            calls.sort_unstable();
+            assert_eq!(calls, expected, "minimum {minimum}");
+        }
+        // A coarse search that sees nothing leaves the fine one its start.
+        let r = search(8, START, |_| f64::NAN, |g| (g as f64 - 5.0).abs());
+        assert_eq!(least(&r), Some(5));
+    }
+
+    #[test]
     fn the_share_residual_ignores_the_texture_and_scale_that_multiply_every_flash() {
         let render = vec![vec![1.0, 2.0, 3.0], vec![3.0, 2.0, 1.0]];
         // The photo: the render times a texture per cell and a scale.
@@ -578,6 +649,7 @@ mod tests {
     const TEST_OPTIONS: ScatteringOptions = ScatteringOptions {
         cells: 24,
         samples: 128,
+        search_samples: 32,
         min_cells: 16,
         seed: 7,
     };
