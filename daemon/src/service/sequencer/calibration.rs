@@ -74,7 +74,7 @@ impl BoardPlan {
     pub const MAX_SHOTS: usize = 64;
 
     /// Most frames averaged into one photo of a resting board.
-    pub const MAX_RESTING_FRAMES: usize = 16;
+    pub const MAX_RESTING_FRAMES: usize = 64;
 
     /// An error saying what is expected unless `resting_frames` is 1 to
     /// [`BoardPlan::MAX_RESTING_FRAMES`].
