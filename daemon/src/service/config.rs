@@ -1209,7 +1209,7 @@ mod tests {
             ),
             (
                 "rig = \"simulated\"\n[calibration]\nresting_frames = 0",
-                "`calibration.resting_frames`: resting_frames = 0: expected 1 to 16",
+                "`calibration.resting_frames`: resting_frames = 0: expected 1 to 64",
             ),
             (
                 "rig = \"simulated\"\n[calibration]\nshots = 0",
