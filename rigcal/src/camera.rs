@@ -108,6 +108,10 @@ pub struct CameraReport {
 pub struct SkippedShot {
     pub file: PathBuf,
     pub reason: String,
+    /// The Gray-code folder of the pose, where it had one: the projector
+    /// lost that pose too.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub graycode: Option<PathBuf>,
 }
 
 /// Where a seat of the mount holds the board, as the calibration found it.
@@ -231,6 +235,7 @@ pub fn calibrate_camera(
                 skipped.push(SkippedShot {
                     file: shot.file.clone(),
                     reason,
+                    graycode: shot.graycode.clone(),
                 });
             }
             Err(e) => return Err(e),

@@ -85,7 +85,9 @@ struct Decoded {
 
 /// Calibrates the projector from the Gray-code shots of the bundle in
 /// `dir`, given the camera calibrated from it (whose shots, corners and
-/// board poses it reuses). `Ok(None)` when the bundle has no Gray codes.
+/// board poses it reuses). `Ok(None)` when the bundle has no Gray codes;
+/// an error when it has some but the camera's calibration left every
+/// one of their poses out.
 pub fn calibrate_projector(
     dir: &Path,
     camera: &CameraCalibration,
@@ -102,6 +104,14 @@ pub fn calibrate_projector(
         .filter_map(|(k, s)| s.graycode.clone().map(|g| (k, g)))
         .collect();
     if shots.is_empty() {
+        // Gray codes the camera left out with their poses (no complete
+        // board in them) are too few, not absent.
+        if camera.report.skipped.iter().any(|s| s.graycode.is_some()) {
+            return Err(RigcalError::TooFewGrayCodeShots {
+                found: 0,
+                needed: 3,
+            });
+        }
         return Ok(None);
     }
     type Found = Result<(ShotPoints, [u32; 2]), RigcalError>;

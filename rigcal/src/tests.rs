@@ -402,7 +402,16 @@ fn the_simulated_rigs_board_photos_calibrate_its_camera() {
     assert!(!without.report.skipped[0].reason.is_empty());
     assert_eq!(without.report.shots.len(), cal.report.shots.len() - 1);
     assert!(without.report.shots.iter().all(|s| s.file != held));
-    assert_eq!(without.poses.len(), without.report.shots.len());
+    // The corners, thumbnails and report stay shot by shot in step.
+    assert_eq!(without.thumbnails.len(), without.report.shots.len());
+    for (k, s) in without.report.shots.iter().enumerate() {
+        assert_eq!(
+            without.corners[k].0.len(),
+            s.corners,
+            "{}",
+            s.file.display()
+        );
+    }
     assert!(without.manifest.positions[1]
         .shots
         .iter()

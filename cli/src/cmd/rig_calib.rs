@@ -143,9 +143,16 @@ pub fn run_rig(a: RigArgs) -> Result<()> {
     }
     for s in &r.skipped {
         println!(
-            "  {} left out: {}; retake it to add its pose",
+            "  {} left out: {}; {}",
             s.file.display(),
-            s.reason
+            s.reason,
+            match &s.graycode {
+                Some(g) => format!(
+                    "retake the pose with its Gray codes ({}), which the projector lost too",
+                    g.display()
+                ),
+                None => "retake it to add its pose".to_string(),
+            }
         );
     }
     for seat in &r.seats {
