@@ -471,6 +471,28 @@ fn the_simulated_rigs_gray_codes_calibrate_its_projector() {
     let e = calibrate_projector(&bundle, &cal).unwrap_err();
     assert!(matches!(e, RigcalError::GrayCode { .. }), "{e}");
     assert!(e.to_string().contains(folder.to_str().unwrap()), "{e}");
+
+    // Every Gray-code pose without a board: the camera leaves them out
+    // and the projector is refused as too few, not dropped as absent.
+    let blank = RgbRaster::filled(512, 512, [0.4f32; 3]);
+    for s in m.positions[0].shots.iter().filter(|s| s.graycode.is_some()) {
+        write_rgb_exr(&bundle.join(&s.file), &blank, Precision::Half).unwrap();
+    }
+    let without = calibrate_camera(&bundle, &m, &Acceptance::default()).unwrap();
+    assert_eq!(
+        without
+            .report
+            .skipped
+            .iter()
+            .filter(|s| s.graycode.is_some())
+            .count(),
+        4
+    );
+    let e = calibrate_projector(&bundle, &without).unwrap_err();
+    assert!(
+        matches!(e, RigcalError::TooFewGrayCodeShots { found: 0, .. }),
+        "{e}"
+    );
 }
 
 #[test]

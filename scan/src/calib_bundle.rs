@@ -101,6 +101,12 @@ impl Chessboard {
 /// The name a capture gives the mount's further seat.
 pub const SEAT: &str = "seat-2";
 
+/// Frames a capture averages into each photo of a resting board (the
+/// reference and the seats) by default: a position's camera pose rests on
+/// those photos, and 16 frames (half a second of video) take about two
+/// fifths off its error against 4 (docs/results.md).
+pub const RESTING_FRAMES: usize = 16;
+
 /// Where a shot's board was.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum BoardPlacement {

@@ -83,7 +83,7 @@ impl Default for BoardBundleOptions {
             positions: 3,
             shots_per_position: 8,
             seat: true,
-            resting_frames: 16,
+            resting_frames: matscan_scan::calib_bundle::RESTING_FRAMES,
             projector_shots: 12,
             inner_corners: INNER_CORNERS,
             distortion: [-0.08, 0.05, 0.0005, -0.0003, 0.0],

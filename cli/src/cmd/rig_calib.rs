@@ -70,7 +70,7 @@ pub struct BoardArgs {
     pub no_seat: bool,
     /// Frames averaged into each photo of the resting board (the
     /// reference and the seat), each rendered with its own noise.
-    #[arg(long, default_value_t = 16)]
+    #[arg(long, default_value_t = matscan_scan::calib_bundle::RESTING_FRAMES)]
     pub resting_frames: usize,
     #[arg(long, default_value_t = 1)]
     pub seed: u64,

@@ -104,7 +104,7 @@ impl Default for CalibrationSettings {
             shots: 8,
             projector_shots: 12,
             seat: true,
-            resting_frames: 16,
+            resting_frames: matscan_scan::calib_bundle::RESTING_FRAMES,
             positions: 1,
             sphere_radius: None,
             sphere_placements: 6,
