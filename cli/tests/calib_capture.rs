@@ -29,9 +29,11 @@ fn capture_json(socket: &str, args: &[&str]) -> Value {
 #[test]
 fn calib_capture_through_the_daemon_calibrates_the_simulated_rig_and_names_a_missing_shot() {
     let dir = tempfile::tempdir().unwrap();
+    // Fewer frames per photo than a real rig's defaults (16 and 16) keep
+    // the test's renders few; its limits hold with them.
     let d = TestDaemon::start(
         dir.path(),
-        "",
+        "[calibration]\nresting_frames = 4\nheld_frames = 1",
         "seed = 1\nsize = 448\npositions = 2\nsamples = 4\nturntable = true",
     );
     let socket = d.socket.display().to_string();

@@ -22,7 +22,8 @@
 //! near 45 degrees), the board's inner corners, the photos of each resting
 //! placement (repeated photos of a board that does not move, each with
 //! its own noise), the frames averaged into each such photo (its noise
-//! over their root) and whether the mount's second seat
+//! over their root), the frames averaged into each held photo (a board
+//! propped still on a stand) and whether the mount's second seat
 //! (`matscan_sim::calib_target::seat_placement`) is photographed too.
 use glam::{DMat4, DQuat, DVec2, DVec3};
 use matscan_rigcal::camera::{solve_camera, Acceptance};
@@ -58,6 +59,9 @@ struct Design {
     /// Frames averaged into each photo of a resting placement: its corners
     /// carry the noise over the root of this.
     frames: usize,
+    /// Frames averaged into each hand-held photo (a board propped on a
+    /// stand holds still like a resting one).
+    held_frames: usize,
 }
 
 struct Errors {
@@ -66,7 +70,7 @@ struct Errors {
     principal_px: f64,
 }
 
-const DESIGNS: [Design; 17] = [
+const DESIGNS: [Design; 21] = [
     design(
         "lean 25 deg about x, 9x6",
         8,
@@ -205,6 +209,43 @@ const DESIGNS: [Design; 17] = [
         (20.0, 50.0),
         16,
     ),
+    Design {
+        distance: (0.6, 0.85),
+        ..averaged(
+            "seat, one photo of 16 frames each, 8 shots held at 0.6 to 0.85",
+            8,
+            (10.0, 40.0),
+            16,
+        )
+    },
+    Design {
+        held_frames: 4,
+        ..averaged(
+            "seat, one photo of 16 frames each, 8 propped shots of 4 frames",
+            8,
+            (10.0, 40.0),
+            16,
+        )
+    },
+    Design {
+        held_frames: 16,
+        ..averaged(
+            "seat, one photo of 16 frames each, 8 propped shots of 16 frames",
+            8,
+            (10.0, 40.0),
+            16,
+        )
+    },
+    Design {
+        distance: (0.6, 0.85),
+        held_frames: 16,
+        ..averaged(
+            "seat, one photo of 16 frames each, 8 propped shots of 16 frames at 0.6 to 0.85",
+            8,
+            (10.0, 40.0),
+            16,
+        )
+    },
 ];
 
 /// A design held at 0.8 to 1.1 times the working distance.
@@ -227,6 +268,7 @@ const fn design(
         photos_per_seat,
         seat,
         frames: 1,
+        held_frames: 1,
     }
 }
 
@@ -297,7 +339,7 @@ fn trial(seed: u64, draw: u64, design: &Design, noise_px: f64) -> Option<Errors>
         for (s, (placement, b2w)) in placed.into_iter().enumerate() {
             let pose_c = Pose::from_matrix(&(w2c * b2w));
             let noise = match placement {
-                BoardPlacement::Held => noise_px,
+                BoardPlacement::Held => noise_px / (design.held_frames as f64).sqrt(),
                 _ => noise_px / (design.frames as f64).sqrt(),
             };
             let corners: Vec<Corner> = (0..board.rows)
@@ -364,10 +406,16 @@ fn main() {
     // Arguments: the corner noise in pixels (default 0.05) and a piece of
     // the designs' names to run only those.
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let noise_px = args
-        .first()
-        .and_then(|a| a.parse::<f64>().ok())
-        .unwrap_or(NOISE_PX);
+    let noise_px = match args.first() {
+        None => NOISE_PX,
+        Some(a) => match a.parse::<f64>() {
+            Ok(n) if n.is_finite() && n >= 0.0 => n,
+            _ => {
+                eprintln!("board_design: NOISE_PX is {a:?}: expected pixels, such as 0.1");
+                std::process::exit(2);
+            }
+        },
+    };
     let only = args.get(1).cloned().unwrap_or_default();
     println!("corner noise {noise_px} px per coordinate");
     println!("rig | design | worst position, median mm | 90th percentile mm | focal, median % | principal point, median px | refused");

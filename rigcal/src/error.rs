@@ -10,8 +10,7 @@ pub enum RigcalError {
     Scan(#[from] matscan_scan::ScanError),
     /// The detector found no complete board in a photo.
     #[error(
-        "{}: {reason}; retake it with the whole board in view, evenly lit and in focus, \
-         or remove the shot from calib.toml",
+        "{}: {reason}; retake it with the whole board in view, evenly lit and in focus",
         path.display()
     )]
     BoardNotFound { path: PathBuf, reason: String },

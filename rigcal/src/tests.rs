@@ -9,7 +9,9 @@ use crate::model::{project, Pose};
 use crate::write::{rig_manifest, write_calibration, REPORT_FILE, RIG_FILE};
 use crate::zhang::homography;
 use glam::{DMat4, DQuat, DVec2, DVec3};
-use matscan_scan::calib_bundle::{BoardPlacement, CalibManifest, CalibPosition, Chessboard, Shot};
+use matscan_scan::calib_bundle::{
+    BoardFrames, BoardPlacement, CalibManifest, CalibPosition, Chessboard, Shot,
+};
 use matscan_scan::camera::Intrinsics;
 use matscan_scan::image_io::{write_rgb_exr, Precision};
 use matscan_scan::raster::RgbRaster;
@@ -332,7 +334,10 @@ fn rendered(
         inner_corners: (7, 5),
         samples: 4,
         seed,
-        resting_frames: 1,
+        frames: BoardFrames {
+            resting: 1,
+            held: 1,
+        },
         ..BoardBundleOptions::default()
     };
     let m = write_board_bundle(&opts, &bundle).unwrap();

@@ -101,11 +101,47 @@ impl Chessboard {
 /// The name a capture gives the mount's further seat.
 pub const SEAT: &str = "seat-2";
 
-/// Frames a capture averages into each photo of a resting board (the
-/// reference and the seats) by default: a position's camera pose rests on
-/// those photos, and 16 frames (half a second of video) take about two
-/// fifths off its error against 4 (docs/results.md).
-pub const RESTING_FRAMES: usize = 16;
+/// Frames a capture averages into each photo of a board, by where the
+/// board is: averaging takes the camera's noise off the corners by the
+/// root of the count, and the board must hold still for it (half a second
+/// of video at 16 frames).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct BoardFrames {
+    /// Each photo of a resting board (the reference and the seats), which a
+    /// position's camera pose rests on.
+    pub resting: usize,
+    /// Each photo of a held board (the hand-held poses and the Gray-code
+    /// poses' flash-lit photo), which the intrinsics rest on: propped on a
+    /// stand, the board holds still; held by hand, 1.
+    pub held: usize,
+}
+
+impl BoardFrames {
+    /// 16 frames for every photo: against 4 resting frames and single held
+    /// photos they take about two fifths and then another third off the
+    /// camera's position error (docs/results.md).
+    pub const DEFAULT: BoardFrames = BoardFrames {
+        resting: 16,
+        held: 16,
+    };
+
+    /// Most frames a capture averages into one photo.
+    pub const MAX: usize = 64;
+
+    /// The frames averaged into a photo of the board at `placement`.
+    pub fn for_placement(&self, placement: &BoardPlacement) -> usize {
+        match placement {
+            BoardPlacement::Held => self.held,
+            BoardPlacement::Reference | BoardPlacement::Seat(_) => self.resting,
+        }
+    }
+}
+
+impl Default for BoardFrames {
+    fn default() -> Self {
+        BoardFrames::DEFAULT
+    }
+}
 
 /// Where a shot's board was.
 #[derive(Debug, Clone, PartialEq, Eq)]

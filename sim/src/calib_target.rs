@@ -22,11 +22,11 @@ use crate::scene::{
 use glam::{DMat3, DMat4, DQuat, DVec3, Vec2, Vec3};
 use matscan_scan::atomic::{write_atomic, PendingDir};
 use matscan_scan::calib_bundle::{
-    graycode_file, BoardPlacement, CalibManifest, CalibPosition, Chessboard, ProjectorSize, Shot,
-    CALIB_MANIFEST, SEAT,
+    graycode_file, BoardFrames, BoardPlacement, CalibManifest, CalibPosition, Chessboard,
+    ProjectorSize, Shot, CALIB_MANIFEST, SEAT,
 };
 use matscan_scan::image_io::write_rgb_exr;
-use matscan_scan::raster::Raster;
+use matscan_scan::raster::{Raster, RgbRaster};
 use matscan_scan::{GrayAxis, Manifest, Mesh, Pattern, PinholeCamera, Position, Precision};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
@@ -59,9 +59,9 @@ pub struct BoardBundleOptions {
     /// One more shot per position with the board on the mount's further
     /// seat ([`seat_placement`]).
     pub seat: bool,
-    /// Frames averaged into each photo of a resting board (the reference
-    /// and the seat), each rendered with its own noise.
-    pub resting_frames: usize,
+    /// Frames averaged into each photo of the board, by where it is, each
+    /// rendered with its own noise.
+    pub frames: BoardFrames,
     /// Further shots at the first position with the projector's Gray
     /// codes on the board (0 for none).
     pub projector_shots: usize,
@@ -83,7 +83,7 @@ impl Default for BoardBundleOptions {
             positions: 3,
             shots_per_position: 8,
             seat: true,
-            resting_frames: matscan_scan::calib_bundle::RESTING_FRAMES,
+            frames: BoardFrames::DEFAULT,
             projector_shots: 12,
             inner_corners: INNER_CORNERS,
             distortion: [-0.08, 0.05, 0.0005, -0.0003, 0.0],
@@ -585,28 +585,12 @@ pub fn write_board_bundle(
         for (s, (placement, board_to_world)) in placed.into_iter().enumerate() {
             let scene = board_scene(&board, board_to_world, &rig);
             let renderer = Renderer::with_environment(&scene, env.clone());
-            // A resting board's photo is the mean of fresh frames, as the
-            // daemon takes it: each frame a render with its own noise.
-            let frames = match placement {
-                BoardPlacement::Held => 1,
-                _ => opts.resting_frames.max(1),
-            };
-            let photo = renderer
+            let first = renderer
                 .render_position(p, &capture, &ropts)?
                 .photos
-                .remove(0)
-                .mean_with(frames - 1, |k| {
-                    let fresh = RenderOptions {
-                        seed: ropts.seed.wrapping_add(k as u64 * 1_000_003),
-                        ..ropts
-                    };
-                    Ok::<_, SimError>(
-                        renderer
-                            .render_position(p, &capture, &fresh)?
-                            .photos
-                            .remove(0),
-                    )
-                })?;
+                .remove(0);
+            let frames = opts.frames.for_placement(&placement);
+            let photo = mean_of_frames(first, &renderer, p, &capture, &ropts, frames)?;
             let file = PathBuf::from(&position.name).join(format!("board-{s:02}.exr"));
             write_rgb_exr(&pending.path().join(&file), &photo, Precision::Half)?;
             shots.push(Shot {
@@ -623,6 +607,7 @@ pub fn write_board_bundle(
                     &rig,
                     &env,
                     &ropts,
+                    opts.frames.held,
                     pending.path(),
                     k,
                 )?);
@@ -656,16 +641,41 @@ pub fn write_board_bundle(
     Ok(manifest)
 }
 
+/// `first`, a render of the one capture in `capture` at position `p`,
+/// averaged with `frames - 1` fresh renders of it, each with its own
+/// noise: the photo the daemon takes of a board holding still.
+fn mean_of_frames(
+    first: RgbRaster,
+    renderer: &Renderer,
+    p: usize,
+    capture: &[CaptureSpec],
+    ropts: &RenderOptions,
+    frames: usize,
+) -> Result<RgbRaster, SimError> {
+    first.mean_with(frames.saturating_sub(1), |k| {
+        let fresh = RenderOptions {
+            seed: ropts.seed.wrapping_add(k as u64 * 1_000_003),
+            ..*ropts
+        };
+        Ok(renderer
+            .render_position(p, capture, &fresh)?
+            .photos
+            .remove(0))
+    })
+}
+
 /// The `k`-th Gray-code shot at the first position: the board where both
 /// the camera and the projector see it whole, photographed under the
-/// flashes (for its corners) and under every Gray-code pattern, rendered in
-/// one pass.
+/// flashes (for its corners, the mean of `frames` frames) and under every
+/// Gray-code pattern, rendered in one pass.
+#[allow(clippy::too_many_arguments)]
 fn projector_shot(
     rng: &mut Pcg64,
     board: &Chessboard,
     rig: &Rig,
     env: &Environment,
     ropts: &RenderOptions,
+    frames: usize,
     root: &Path,
     k: usize,
 ) -> Result<Shot, SimError> {
@@ -704,15 +714,17 @@ fn projector_shot(
     }
     let scene = board_scene(board, placement, rig);
     let renderer = Renderer::with_environment(&scene, env.clone());
-    let photos = renderer.render_position(0, &captures, ropts)?.photos;
+    let mut photos = renderer.render_position(0, &captures, ropts)?.photos;
+    let first = photos.remove(0);
+    let lit_photo = mean_of_frames(first, &renderer, 0, &captures[..1], ropts, frames)?;
     let folder = PathBuf::from(&position.name).join(format!("projector-{k:02}"));
     std::fs::create_dir_all(root.join(&folder)).map_err(|e| SimError::Io {
         path: root.join(&folder),
         source: e,
     })?;
     let lit = folder.join("board.exr");
-    write_rgb_exr(&root.join(&lit), &photos[0], Precision::Half)?;
-    for (file, photo) in files.iter().zip(&photos[1..]) {
+    write_rgb_exr(&root.join(&lit), &lit_photo, Precision::Half)?;
+    for (file, photo) in files.iter().zip(&photos) {
         write_rgb_exr(&root.join(&folder).join(file), photo, Precision::Half)?;
     }
     Ok(Shot {

@@ -12,7 +12,7 @@ use matscan_rigcal::sheet::write_contact_sheet;
 use matscan_rigcal::write::{write_calibration, REPORT_FILE};
 use matscan_rigcal::write::{write_lights, write_radiometry, WrittenRig};
 use matscan_rigcal::{calibrate_camera, Acceptance};
-use matscan_scan::calib_bundle::CalibManifest;
+use matscan_scan::calib_bundle::{BoardFrames, CalibManifest};
 use matscan_scan::lights_bundle::LightsManifest;
 use matscan_scan::white_bundle::WhiteManifest;
 use matscan_scan::Manifest;
@@ -70,8 +70,12 @@ pub struct BoardArgs {
     pub no_seat: bool,
     /// Frames averaged into each photo of the resting board (the
     /// reference and the seat), each rendered with its own noise.
-    #[arg(long, default_value_t = matscan_scan::calib_bundle::RESTING_FRAMES)]
+    #[arg(long, default_value_t = BoardFrames::DEFAULT.resting, value_parser = frames)]
     pub resting_frames: usize,
+    /// Frames averaged into each photo of a held board (the hand-held and
+    /// the Gray-code poses, propped still): 1 for a board held by hand.
+    #[arg(long, default_value_t = BoardFrames::DEFAULT.held, value_parser = frames)]
+    pub held_frames: usize,
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Paths per pixel.
@@ -99,6 +103,22 @@ pub fn run_rig(a: RigArgs) -> Result<()> {
     let t = Instant::now();
     let calibration = calibrate_camera(&a.bundle, &manifest, &acceptance)
         .with_context(|| format!("calibrating the camera from {}", a.bundle.display()))?;
+    // Printed before the steps that may still fail, so the shots to retake
+    // are named whatever comes next.
+    for s in &calibration.report.skipped {
+        println!(
+            "  {} left out: {}; {}",
+            s.file.display(),
+            s.reason,
+            match &s.graycode {
+                Some(g) => format!(
+                    "retake the pose with its Gray codes ({}), which the projector lost too",
+                    g.display()
+                ),
+                None => "retake it to add its pose".to_string(),
+            }
+        );
+    }
     let projector = if calibration.report.accepted {
         calibrate_projector(&a.bundle, &calibration)
             .with_context(|| format!("calibrating the projector from {}", a.bundle.display()))?
@@ -138,20 +158,6 @@ pub fn run_rig(a: RigArgs) -> Result<()> {
                 (Some(seat), _) => format!(", on {seat}"),
                 (None, true) => ", reference".to_string(),
                 (None, false) => String::new(),
-            }
-        );
-    }
-    for s in &r.skipped {
-        println!(
-            "  {} left out: {}; {}",
-            s.file.display(),
-            s.reason,
-            match &s.graycode {
-                Some(g) => format!(
-                    "retake the pose with its Gray codes ({}), which the projector lost too",
-                    g.display()
-                ),
-                None => "retake it to add its pose".to_string(),
             }
         );
     }
@@ -204,6 +210,17 @@ pub fn run_rig(a: RigArgs) -> Result<()> {
     Ok(())
 }
 
+/// A frame count of 1 to [`BoardFrames::MAX`], as the daemon takes it.
+fn frames(text: &str) -> Result<usize, String> {
+    match text.parse::<usize>() {
+        Ok(n) if (1..=BoardFrames::MAX).contains(&n) => Ok(n),
+        _ => Err(format!(
+            "expected 1 to {} frames per photo of the board",
+            BoardFrames::MAX
+        )),
+    }
+}
+
 /// Runs `matscan calib board`: the simulated rig's board photos.
 pub fn run_board(a: BoardArgs) -> Result<()> {
     let opts = BoardBundleOptions {
@@ -213,7 +230,10 @@ pub fn run_board(a: BoardArgs) -> Result<()> {
         shots_per_position: a.shots,
         projector_shots: a.projector_shots,
         seat: !a.no_seat,
-        resting_frames: a.resting_frames,
+        frames: BoardFrames {
+            resting: a.resting_frames,
+            held: a.held_frames,
+        },
         seed: a.seed,
         samples: a.samples,
         ..BoardBundleOptions::default()

@@ -8,6 +8,7 @@
 use super::sequencer::{BoardPlan, CalibrationTarget, SpherePlan, WhitePlan};
 use matscan_drivers::projector::kms::{Gamma, ModeRequest};
 use matscan_drivers::usb::UsbId;
+use matscan_scan::calib_bundle::BoardFrames;
 use matscan_scan::Param;
 use matscan_sim::scene::{GeometryKind, SceneKind};
 use serde::Deserialize;
@@ -78,8 +79,9 @@ pub struct CalibrationSettings {
     /// on at every position (`seat`).
     pub seat: bool,
     /// Frames averaged into each photo of the board resting at the
-    /// reference or on the seat (`resting_frames`).
-    pub resting_frames: usize,
+    /// reference or on the seat (`resting_frames`), and into each photo of
+    /// a held board (`held_frames`).
+    pub frames: BoardFrames,
     /// Positions to photograph when the rig has no calibration file yet.
     pub positions: usize,
     /// The light-calibration sphere's radius, metres (`sphere_radius`);
@@ -104,7 +106,7 @@ impl Default for CalibrationSettings {
             shots: 8,
             projector_shots: 12,
             seat: true,
-            resting_frames: matscan_scan::calib_bundle::RESTING_FRAMES,
+            frames: BoardFrames::DEFAULT,
             positions: 1,
             sphere_radius: None,
             sphere_placements: 6,
@@ -434,6 +436,7 @@ struct RawCalibration {
     projector_shots: Option<usize>,
     seat: Option<bool>,
     resting_frames: Option<usize>,
+    held_frames: Option<usize>,
     positions: Option<usize>,
     sphere_radius: Option<f64>,
     sphere_placements: Option<usize>,
@@ -733,10 +736,15 @@ fn calibration(
     let shots = raw.shots.unwrap_or(defaults.shots);
     let projector_shots = raw.projector_shots.unwrap_or(defaults.projector_shots);
     let seat = raw.seat.unwrap_or(defaults.seat);
-    let resting_frames = raw.resting_frames.unwrap_or(defaults.resting_frames);
-    BoardPlan::check_resting_frames(resting_frames)
+    let frames = BoardFrames {
+        resting: raw.resting_frames.unwrap_or(defaults.frames.resting),
+        held: raw.held_frames.unwrap_or(defaults.frames.held),
+    };
+    BoardPlan::check_frames("resting_frames", frames.resting)
         .map_err(|e| invalid("calibration.resting_frames", e))?;
-    BoardPlan::new(shots, projector_shots, seat, resting_frames)
+    BoardPlan::check_frames("held_frames", frames.held)
+        .map_err(|e| invalid("calibration.held_frames", e))?;
+    BoardPlan::new(shots, projector_shots, seat, frames)
         .map_err(|e| invalid("calibration.shots", e))?;
     let positions = raw.positions.unwrap_or(defaults.positions);
     if positions == 0 {
@@ -777,7 +785,7 @@ fn calibration(
         shots,
         projector_shots,
         seat,
-        resting_frames,
+        frames,
         positions,
         sphere_radius: raw.sphere_radius,
         sphere_placements,
@@ -1210,6 +1218,10 @@ mod tests {
             (
                 "rig = \"simulated\"\n[calibration]\nresting_frames = 0",
                 "`calibration.resting_frames`: resting_frames = 0: expected 1 to 64",
+            ),
+            (
+                "rig = \"simulated\"\n[calibration]\nheld_frames = 65",
+                "`calibration.held_frames`: held_frames = 65: expected 1 to 64",
             ),
             (
                 "rig = \"simulated\"\n[calibration]\nshots = 0",

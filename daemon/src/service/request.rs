@@ -86,8 +86,7 @@ pub fn request_calibration(
         "board" => {
             let shots = counts.shots.unwrap_or(c.shots);
             let projector_shots = counts.projector_shots.unwrap_or(c.projector_shots);
-            BoardPlan::new(shots, projector_shots, c.seat, c.resting_frames)
-                .map(CalibrationPlan::Board)
+            BoardPlan::new(shots, projector_shots, c.seat, c.frames).map(CalibrationPlan::Board)
         }
         "sphere" => {
             let placements = counts.placements.unwrap_or(c.sphere_placements);

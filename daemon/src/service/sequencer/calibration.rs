@@ -6,10 +6,12 @@
 //! Per position (the turntable turns, or the operator moves the camera and
 //! presses): the board at its reference placement, on the mount's further
 //! seat where the plan asks (the same seat at every position: with the
-//! reference it is a target with depth), then hand-held at further poses,
-//! each photo under both flashes. At the first position the
-//! board is then held where the projector lights it whole, and each such
-//! pose is photographed under the flashes and under every Gray-code image
+//! reference it is a target with depth), then at further poses (propped on
+//! a stand, or held by hand where a held photo is one frame), each photo
+//! under both flashes and the mean of the plan's frames for its placement.
+//! At the first position the board then stands where the projector lights
+//! it whole, and each such pose is photographed under the flashes and
+//! under every Gray-code image
 //! of the projector's columns and rows (each bit and its inverse). Before
 //! each pose the operator is prompted and the sequencer waits for the
 //! footswitch, as between a scan's positions; the simulated rig's
@@ -30,8 +32,8 @@ use super::{CaptureError, Progress, RigDevices, RunSettings};
 use matscan_drivers::{monotonic_now, GrayCode, Level, LightId, ProjectorPattern, TargetPlacement};
 use matscan_scan::atomic::{write_atomic, PendingDir};
 use matscan_scan::calib_bundle::{
-    graycode_file, BoardPlacement, CalibManifest, CalibPosition, Chessboard, ProjectorSize, Shot,
-    CALIB_MANIFEST, SEAT,
+    graycode_file, BoardFrames, BoardPlacement, CalibManifest, CalibPosition, Chessboard,
+    ProjectorSize, Shot, CALIB_MANIFEST, SEAT,
 };
 use matscan_scan::image_io::write_rgb_exr;
 use matscan_scan::lights_bundle::{
@@ -63,50 +65,44 @@ pub struct BoardPlan {
     /// One more photo per position with the board on the mount's further
     /// seat ([`SEAT`]).
     pub seat: bool,
-    /// Frames averaged into each photo of a resting board (the reference
-    /// and the seat): the positions rest on those photos, and averaging
-    /// lowers the camera's noise in them.
-    pub resting_frames: usize,
+    /// Frames averaged into each photo of the board, by where it is.
+    pub frames: BoardFrames,
 }
 
 impl BoardPlan {
     /// Most poses per position or for the projector a request may ask.
     pub const MAX_SHOTS: usize = 64;
 
-    /// Most frames averaged into one photo of a resting board.
-    pub const MAX_RESTING_FRAMES: usize = 64;
-
-    /// An error saying what is expected unless `resting_frames` is 1 to
-    /// [`BoardPlan::MAX_RESTING_FRAMES`].
-    pub fn check_resting_frames(resting_frames: usize) -> Result<(), String> {
-        if (1..=Self::MAX_RESTING_FRAMES).contains(&resting_frames) {
+    /// An error naming `key` (`resting_frames` or `held_frames`) and saying
+    /// what is expected unless `frames` is 1 to [`BoardFrames::MAX`].
+    pub fn check_frames(key: &str, frames: usize) -> Result<(), String> {
+        if (1..=BoardFrames::MAX).contains(&frames) {
             return Ok(());
         }
         Err(format!(
-            "resting_frames = {resting_frames}: expected 1 to {} frames per photo of a resting \
-             board",
-            Self::MAX_RESTING_FRAMES
+            "{key} = {frames}: expected 1 to {} frames per photo of the board",
+            BoardFrames::MAX
         ))
     }
 
     /// The plan, unless there is not even the reference shot, a count
-    /// exceeds [`BoardPlan::MAX_SHOTS`], or `resting_frames` is outside 1
-    /// to [`BoardPlan::MAX_RESTING_FRAMES`] (the error says what is
-    /// expected).
+    /// exceeds [`BoardPlan::MAX_SHOTS`], or a frame count is outside 1 to
+    /// [`BoardFrames::MAX`] (the error says what is expected).
     pub fn new(
         shots: usize,
         projector_shots: usize,
         seat: bool,
-        resting_frames: usize,
+        frames: BoardFrames,
     ) -> Result<BoardPlan, String> {
         let max = Self::MAX_SHOTS;
-        Self::check_resting_frames(resting_frames)?;
+        Self::check_frames("resting_frames", frames.resting)?;
+        Self::check_frames("held_frames", frames.held)?;
         ((1..=max).contains(&shots) && projector_shots <= max)
             .then_some(BoardPlan {
                 shots,
                 projector_shots,
                 seat,
-                resting_frames,
+                frames,
             })
             .ok_or_else(|| {
                 format!(
@@ -194,7 +190,8 @@ impl CalibrationPlan {
         match self {
             CalibrationPlan::Board(b) => serde_json::json!({
                 "target": "board", "shots": b.shots, "projector_shots": b.projector_shots,
-                "seat": b.seat, "resting_frames": b.resting_frames,
+                "seat": b.seat, "resting_frames": b.frames.resting,
+                "held_frames": b.frames.held,
             }),
             CalibrationPlan::Sphere(s) => serde_json::json!({
                 "target": "sphere", "placements": s.placements,
@@ -290,6 +287,13 @@ impl RigDevices {
             let folder = PathBuf::from(&geometry.name);
             create_dir(&pending.path().join(&folder))?;
             let mut shots = Vec::new();
+            // Frames averaged into a held pose's photo need a board that
+            // does not move while they are taken.
+            let hold = if plan.frames.held > 1 {
+                "prop the board on its stand"
+            } else {
+                "hold the board"
+            };
             let resting = std::iter::once((
                 BoardPlacement::Reference,
                 TargetPlacement::Reference,
@@ -313,7 +317,7 @@ impl RigDevices {
                     BoardPlacement::Held,
                     TargetPlacement::HandHeld,
                     format!(
-                        "hold the board at a new pose before the camera at {} (pose {} of {}), whole in view and tilted",
+                        "{hold} at a new pose before the camera at {} (pose {} of {}), whole in view and tilted",
                         geometry.name,
                         s + 1,
                         plan.shots
@@ -323,10 +327,7 @@ impl RigDevices {
             for (s, (placement, place, task)) in resting.chain(held).enumerate() {
                 self.present(index, place, &task, settings, stop, prompt)?;
                 let file = folder.join(format!("board-{s:02}.exr"));
-                let frames = match placement {
-                    BoardPlacement::Held => 1,
-                    _ => plan.resting_frames,
-                };
+                let frames = plan.frames.for_placement(&placement);
                 self.photograph_board(pending.path(), &file, frames, stop)?;
                 done += 1;
                 progress(Progress {
@@ -343,7 +344,7 @@ impl RigDevices {
             if index == 0 {
                 for k in 0..plan.projector_shots {
                     let task = format!(
-                        "hold the board where the projector lights it whole (Gray-code pose {} of {})",
+                        "{hold} where the projector lights it whole (Gray-code pose {} of {})",
                         k + 1,
                         plan.projector_shots
                     );
@@ -358,7 +359,7 @@ impl RigDevices {
                     let shot = folder.join(format!("projector-{k:02}"));
                     create_dir(&pending.path().join(&shot))?;
                     let file = shot.join("board.exr");
-                    self.photograph_board(pending.path(), &file, 1, stop)?;
+                    self.photograph_board(pending.path(), &file, plan.frames.held, stop)?;
                     done += 1;
                     progress(Progress {
                         done,

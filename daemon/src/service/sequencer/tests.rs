@@ -5,6 +5,7 @@ use super::*;
 use crate::service::config::{FaultConfig, Profile, RigChoice, SimulatedRigConfig};
 use crate::service::plan::plan;
 use matscan_drivers::sim_rig::FootswitchButton;
+use matscan_scan::calib_bundle::BoardFrames;
 use matscan_scan::{Bundle, CaptureRole, Param};
 use matscan_sim::scene::SceneKind;
 
@@ -338,7 +339,11 @@ fn a_calibration_prompts_the_operator_for_each_board_pose_and_publishes_the_bund
     rig.calibration_target = Some(board_target());
     let target = dir.path().join("calib-0001");
     let mut prompts = Vec::new();
-    let plan = CalibrationPlan::Board(BoardPlan::new(3, 1, true, 2).unwrap());
+    let frames = BoardFrames {
+        resting: 2,
+        held: 2,
+    };
+    let plan = CalibrationPlan::Board(BoardPlan::new(3, 1, true, frames).unwrap());
     let out = with_ready_operator(button, || {
         rig.capture_calibration(
             plan,
@@ -359,7 +364,12 @@ fn a_calibration_prompts_the_operator_for_each_board_pose_and_publishes_the_bund
     assert_eq!(prompts.len(), 10, "{prompts:?}");
     assert!(prompts[0].contains("reference placement"), "{prompts:?}");
     assert!(prompts[1].contains("second seat"), "{prompts:?}");
-    assert!(prompts[2].contains("pose 2 of 3"), "{prompts:?}");
+    // Frames averaged into a held photo need the board propped still.
+    assert!(
+        prompts[2].starts_with("prop the board on its stand at a new pose")
+            && prompts[2].contains("pose 2 of 3"),
+        "{prompts:?}"
+    );
     assert!(prompts[4].contains("projector"), "{prompts:?}");
     assert_eq!(prompts[5], "move the object to p1");
     let manifest = CalibManifest::read(&target).unwrap();
@@ -404,33 +414,36 @@ fn capture_quietly(
 }
 
 #[test]
-fn a_resting_boards_photo_averages_the_frames_the_plan_asks_for() {
-    // A camera that dies after two frames: two one-frame photos of the
-    // reference (one per position) pass; the first three-frame one fails,
-    // leaving nothing behind.
-    let run = |frames: usize| {
+fn a_boards_photo_averages_the_frames_the_plan_asks_for_resting_and_held() {
+    // A camera that dies after four frames, 2 positions x (the reference
+    // and one held pose): one frame each passes; two frames for either
+    // placement need a fifth frame and fail, leaving nothing behind.
+    let run = |resting: usize, held: usize| {
         let dir = tempfile::tempdir().unwrap();
         let (mut rig, _turntable, button) =
             hand_turned_rig_with(matscan_drivers::sim_rig::SimFaults {
-                camera_lost_after: Some(2),
+                camera_lost_after: Some(4),
                 ..Default::default()
             });
         rig.calibration_target = Some(board_target());
         let target = dir.path().join("calib-0001");
-        let plan = CalibrationPlan::Board(BoardPlan::new(1, 0, false, frames).unwrap());
+        let frames = BoardFrames { resting, held };
+        let plan = CalibrationPlan::Board(BoardPlan::new(2, 0, false, frames).unwrap());
         let out = with_ready_operator(button, || capture_quietly(&mut rig, plan, &target));
         let left = std::fs::read_dir(dir.path()).unwrap().count();
         (out.map(|o| o.photos), left)
     };
-    let (one, left) = run(1);
-    assert_eq!((one.unwrap(), left), (2, 1));
-    let (three, left) = run(3);
-    let err = three.unwrap_err();
-    assert!(err.to_string().contains("unplugged"), "{err}");
-    assert_eq!(left, 0);
-    assert!(BoardPlan::new(1, 0, false, 0)
-        .unwrap_err()
-        .contains("resting_frames = 0"));
+    let (one, left) = run(1, 1);
+    assert_eq!((one.unwrap(), left), (4, 1));
+    for (resting, held) in [(2, 1), (1, 2)] {
+        let (out, left) = run(resting, held);
+        let err = out.unwrap_err();
+        assert!(err.to_string().contains("unplugged"), "{err}");
+        assert_eq!(left, 0);
+    }
+    let zero = |resting, held| BoardPlan::new(1, 0, false, BoardFrames { resting, held });
+    assert!(zero(0, 1).unwrap_err().contains("resting_frames = 0"));
+    assert!(zero(1, 0).unwrap_err().contains("held_frames = 0"));
 }
 
 #[test]
@@ -441,7 +454,18 @@ fn a_calibration_without_a_board_or_a_projector_says_what_is_missing_and_writes_
     let run = |rig: &mut RigDevices, plan| capture_quietly(rig, plan, &target);
     let err = run(
         &mut rig,
-        CalibrationPlan::Board(BoardPlan::new(3, 0, true, 1).unwrap()),
+        CalibrationPlan::Board(
+            BoardPlan::new(
+                3,
+                0,
+                true,
+                BoardFrames {
+                    resting: 1,
+                    held: 1,
+                },
+            )
+            .unwrap(),
+        ),
     )
     .unwrap_err();
     assert!(matches!(err, CaptureError::NoCalibrationTarget), "{err}");
@@ -450,7 +474,18 @@ fn a_calibration_without_a_board_or_a_projector_says_what_is_missing_and_writes_
     rig.projector = None;
     let err = run(
         &mut rig,
-        CalibrationPlan::Board(BoardPlan::new(3, 2, true, 1).unwrap()),
+        CalibrationPlan::Board(
+            BoardPlan::new(
+                3,
+                2,
+                true,
+                BoardFrames {
+                    resting: 1,
+                    held: 1,
+                },
+            )
+            .unwrap(),
+        ),
     )
     .unwrap_err();
     assert!(err.to_string().contains("no projector"), "{err}");
