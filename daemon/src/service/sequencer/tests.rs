@@ -452,42 +452,19 @@ fn a_calibration_without_a_board_or_a_projector_says_what_is_missing_and_writes_
     let (mut rig, _turntable, _button) = hand_turned_rig();
     let target = dir.path().join("calib-0001");
     let run = |rig: &mut RigDevices, plan| capture_quietly(rig, plan, &target);
-    let err = run(
-        &mut rig,
-        CalibrationPlan::Board(
-            BoardPlan::new(
-                3,
-                0,
-                true,
-                BoardFrames {
-                    resting: 1,
-                    held: 1,
-                },
-            )
-            .unwrap(),
-        ),
-    )
-    .unwrap_err();
+    let one = BoardFrames {
+        resting: 1,
+        held: 1,
+    };
+    let plan = |projector_shots| {
+        CalibrationPlan::Board(BoardPlan::new(3, projector_shots, true, one).unwrap())
+    };
+    let err = run(&mut rig, plan(0)).unwrap_err();
     assert!(matches!(err, CaptureError::NoCalibrationTarget), "{err}");
     assert!(err.to_string().contains("[calibration] board"), "{err}");
     rig.calibration_target = Some(board_target());
     rig.projector = None;
-    let err = run(
-        &mut rig,
-        CalibrationPlan::Board(
-            BoardPlan::new(
-                3,
-                2,
-                true,
-                BoardFrames {
-                    resting: 1,
-                    held: 1,
-                },
-            )
-            .unwrap(),
-        ),
-    )
-    .unwrap_err();
+    let err = run(&mut rig, plan(2)).unwrap_err();
     assert!(err.to_string().contains("no projector"), "{err}");
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
 }
