@@ -128,6 +128,18 @@ impl BoardFrames {
     /// Most frames a capture averages into one photo.
     pub const MAX: usize = 64;
 
+    /// An error naming `key` and saying what is expected unless `frames`
+    /// is 1 to [`BoardFrames::MAX`].
+    pub fn check(key: &str, frames: usize) -> Result<(), String> {
+        if (1..=Self::MAX).contains(&frames) {
+            return Ok(());
+        }
+        Err(format!(
+            "{key} = {frames}: expected 1 to {} frames per photo of the board",
+            Self::MAX
+        ))
+    }
+
     /// The frames averaged into a photo of the board at `placement`.
     pub fn for_placement(&self, placement: &BoardPlacement) -> usize {
         match placement {

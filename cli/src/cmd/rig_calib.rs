@@ -212,13 +212,10 @@ pub fn run_rig(a: RigArgs) -> Result<()> {
 
 /// A frame count of 1 to [`BoardFrames::MAX`], as the daemon takes it.
 fn frames(text: &str) -> Result<usize, String> {
-    match text.parse::<usize>() {
-        Ok(n) if (1..=BoardFrames::MAX).contains(&n) => Ok(n),
-        _ => Err(format!(
-            "expected 1 to {} frames per photo of the board",
-            BoardFrames::MAX
-        )),
-    }
+    let n = text
+        .parse::<usize>()
+        .map_err(|e| format!("{text:?}: {e}"))?;
+    BoardFrames::check("frames", n).map(|()| n)
 }
 
 /// Runs `matscan calib board`: the simulated rig's board photos.

@@ -740,9 +740,9 @@ fn calibration(
         resting: raw.resting_frames.unwrap_or(defaults.frames.resting),
         held: raw.held_frames.unwrap_or(defaults.frames.held),
     };
-    BoardPlan::check_frames("resting_frames", frames.resting)
+    BoardFrames::check("resting_frames", frames.resting)
         .map_err(|e| invalid("calibration.resting_frames", e))?;
-    BoardPlan::check_frames("held_frames", frames.held)
+    BoardFrames::check("held_frames", frames.held)
         .map_err(|e| invalid("calibration.held_frames", e))?;
     BoardPlan::new(shots, projector_shots, seat, frames)
         .map_err(|e| invalid("calibration.shots", e))?;

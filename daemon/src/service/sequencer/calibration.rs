@@ -73,18 +73,6 @@ impl BoardPlan {
     /// Most poses per position or for the projector a request may ask.
     pub const MAX_SHOTS: usize = 64;
 
-    /// An error naming `key` (`resting_frames` or `held_frames`) and saying
-    /// what is expected unless `frames` is 1 to [`BoardFrames::MAX`].
-    pub fn check_frames(key: &str, frames: usize) -> Result<(), String> {
-        if (1..=BoardFrames::MAX).contains(&frames) {
-            return Ok(());
-        }
-        Err(format!(
-            "{key} = {frames}: expected 1 to {} frames per photo of the board",
-            BoardFrames::MAX
-        ))
-    }
-
     /// The plan, unless there is not even the reference shot, a count
     /// exceeds [`BoardPlan::MAX_SHOTS`], or a frame count is outside 1 to
     /// [`BoardFrames::MAX`] (the error says what is expected).
@@ -95,8 +83,8 @@ impl BoardPlan {
         frames: BoardFrames,
     ) -> Result<BoardPlan, String> {
         let max = Self::MAX_SHOTS;
-        Self::check_frames("resting_frames", frames.resting)?;
-        Self::check_frames("held_frames", frames.held)?;
+        BoardFrames::check("resting_frames", frames.resting)?;
+        BoardFrames::check("held_frames", frames.held)?;
         ((1..=max).contains(&shots) && projector_shots <= max)
             .then_some(BoardPlan {
                 shots,
