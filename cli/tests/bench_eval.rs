@@ -169,6 +169,9 @@ fn eval_tables_group_scans_by_kind_and_overall_weighs_every_scene() {
         assert_eq!((scenes2.len(), scenes_multi.len()), (2, 1));
         for s in scenes2.iter().chain(&scenes_multi) {
             assert!(num(s, "seconds") > 0.0);
+            // The measurements are part of the scan's time.
+            let measure = num(s, "measure_seconds");
+            assert!((0.0..=num(s, "seconds")).contains(&measure), "{s:?}");
         }
         let g2 = &find("group", "2mat", param)[0];
         assert_eq!(g2[col("scans")], "2");

@@ -194,9 +194,12 @@ pub fn run(args: &EstimateArgs) -> Result<()> {
     }
     if let Some(f) = &result.fit {
         println!(
-            "fit ({}, {:.2} s): {} materials; scale from {}",
+            "fit ({}, {:.2} s, of which backlight {:.2} s, scattering {:.2} s): {} materials; \
+             scale from {}",
             f.method,
             result.timings.fit_s,
+            result.timings.backlight_s,
+            result.timings.scattering_s,
             f.materials.len(),
             f.scale
         );

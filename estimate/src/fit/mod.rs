@@ -404,7 +404,28 @@ pub struct Fitted {
     pub constrained: Constrained,
     /// Views left out, and similar.
     pub notes: Vec<String>,
+    /// The whole fit, the measurements included.
     pub seconds: f64,
+    pub measured: MeasureSeconds,
+}
+
+/// Seconds of the fit's two measurements of light beyond the surface lobe
+/// (0 for one that did not run): what they add to a scan's fit (reading
+/// the backlit photo is part of assembling the inputs).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct MeasureSeconds {
+    /// The backlight's transmission ([`measure_backlight`]).
+    pub backlight: f64,
+    /// The checkers' scattering: the mesh read, the flash photos averaged
+    /// into cells and the subsurface renders ([`scattering::measure`]).
+    pub scattering: f64,
+}
+
+impl std::ops::AddAssign for MeasureSeconds {
+    fn add_assign(&mut self, other: Self) {
+        self.backlight += other.backlight;
+        self.scattering += other.scattering;
+    }
 }
 
 impl Fitted {
@@ -577,6 +598,7 @@ pub fn fit_scene(
     if options.light != FitLight::Total {
         subtract_global(bundle, calibration, inputs, &mut lighting, &mut notes)?;
     }
+    let t_backlight = Instant::now();
     let backlight = match (&options.backlight, known.backlight) {
         (Some(o), None) => match measure_backlight(inputs, o) {
             Ok(b) => Some(b),
@@ -589,6 +611,7 @@ pub fn fit_scene(
         },
         _ => None,
     };
+    let backlight_s = t_backlight.elapsed().as_secs_f64();
     let known = Known {
         backlight: known.backlight.or(backlight.as_ref()),
         ..known
@@ -603,6 +626,7 @@ pub fn fit_scene(
         fallback,
         options,
     );
+    let t_scattering = Instant::now();
     measure_subsurface(
         bundle,
         inputs,
@@ -614,6 +638,10 @@ pub fn fit_scene(
     )?;
     notes.append(&mut fitted.notes);
     fitted.notes = notes;
+    fitted.measured = MeasureSeconds {
+        backlight: backlight_s,
+        scattering: t_scattering.elapsed().as_secs_f64(),
+    };
     fitted.seconds = t.elapsed().as_secs_f64();
     Ok(fitted)
 }
@@ -1219,6 +1247,7 @@ where
         constrained: Constrained::default(),
         notes: Vec::new(),
         seconds: 0.0,
+        measured: MeasureSeconds::default(),
     };
     let object = mask.iter().filter(|&&m| m).count().max(1) as f32;
     let (mut bc, mut rough, mut metal) = (0usize, 0usize, 0usize);

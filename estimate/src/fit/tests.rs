@@ -511,6 +511,7 @@ fn pinned_roughness_replaces_only_the_pixels_of_materials_that_pinned_it() {
         },
         notes: Vec::new(),
         seconds: 0.0,
+        measured: MeasureSeconds::default(),
     };
     let mut roughness = vec![0.6f32; 4];
     fitted.pinned_roughness_into(&mut roughness);
@@ -602,6 +603,7 @@ fn dielectric_basecolor_replaces_only_the_pixels_of_opaque_dielectric_materials(
         constrained: Constrained::default(),
         notes: Vec::new(),
         seconds: 0.0,
+        measured: MeasureSeconds::default(),
     };
     let mut basecolor = vec![[0.5f32; 3]; 6];
     let share = fitted.dielectric_basecolor_into(&mut basecolor);
@@ -1006,6 +1008,7 @@ fn transmission_and_subsurface_are_absent_only_where_the_photos_show_it() {
         constrained: Constrained::default(),
         notes: Vec::new(),
         seconds: 0.0,
+        measured: MeasureSeconds::default(),
     };
     let mut transmission = vec![0.4f32; 10];
     assert_eq!(
@@ -1146,6 +1149,7 @@ fn a_metals_measured_highlight_colour_becomes_its_mean_over_the_networks_texture
         constrained: Constrained::default(),
         notes: Vec::new(),
         seconds: 0.0,
+        measured: MeasureSeconds::default(),
     };
     // The network's texture: one pixel half as bright as the other; a
     // black blue channel.

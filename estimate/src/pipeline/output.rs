@@ -118,6 +118,13 @@ pub struct Timings {
     /// The physical fit, every position together (0 when it did not run).
     #[serde(default)]
     pub fit_s: f64,
+    /// Of `fit_s`, the backlight's transmission measurement.
+    #[serde(default)]
+    pub backlight_s: f64,
+    /// Of `fit_s`, the checkers' scattering measurement (the mesh read,
+    /// the flash photos averaged into cells, the renders).
+    #[serde(default)]
+    pub scattering_s: f64,
 }
 
 /// `result.toml`.

@@ -24,7 +24,7 @@
 //! (see `refine`).
 
 use crate::fit::scattering::SubsurfaceFit;
-use crate::fit::{fit_scene, Constrained, Fallback, FitOptions, Fitted, Known};
+use crate::fit::{fit_scene, Constrained, Fallback, FitOptions, Fitted, Known, MeasureSeconds};
 use crate::net::models::{ModelSource, Models, ModelsError};
 use crate::net::network::InputError;
 use crate::pipeline::inputs::{
@@ -339,6 +339,8 @@ pub fn estimate_prepared(
         .collect();
     timings.refine_s = tally.seconds;
     timings.fit_s = fits.seconds;
+    timings.backlight_s = fits.measured.backlight;
+    timings.scattering_s = fits.measured.scattering;
     timings.total_s = prepared.load_s + prepared.calibration_s + start.elapsed().as_secs_f64();
 
     let mut params = BTreeMap::new();
@@ -575,6 +577,7 @@ impl Pass<'_> {
 #[derive(Default)]
 struct FitTally {
     seconds: f64,
+    measured: MeasureSeconds,
     constrained: Option<Constrained>,
     summary: Option<FitSummary>,
     /// The first subsurface a position measured, which the later positions
@@ -585,6 +588,7 @@ struct FitTally {
 impl FitTally {
     fn add(&mut self, method: Method, fitted: &Fitted, bundle: &Bundle, inputs: &SceneInputs) {
         self.seconds += fitted.seconds;
+        self.measured += fitted.measured;
         if self.subsurface.is_none() {
             self.subsurface = fitted
                 .materials

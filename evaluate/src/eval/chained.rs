@@ -66,6 +66,7 @@ pub fn evaluate_prepared(
         group: scene_group(&bundle.manifest.name, group_by),
         family: geometry_family(&bundle.manifest.name),
         seconds: report.result.timings.total_s,
+        measure_seconds: report.result.timings.backlight_s + report.result.timings.scattering_s,
         metrics: BTreeMap::new(),
         baseline: BTreeMap::new(),
     };

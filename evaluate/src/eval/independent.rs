@@ -51,6 +51,7 @@ pub fn evaluate_scene_independent(
             group: group.clone(),
             family: family.clone(),
             seconds: 0.0,
+            measure_seconds: 0.0,
             metrics: BTreeMap::new(),
             baseline: BTreeMap::new(),
         })

@@ -52,7 +52,8 @@ pub(super) fn write_overall(table: &mut String, all: &GroupRow, thesis: &BTreeMa
 }
 
 /// Tables 4.1 to 4.3: one per metric, a row per group and `ALL`, a column
-/// per parameter, and the group's median run time; `by` names the grouping
+/// per parameter, and the group's median run time and median time of the
+/// backlight and checker measurements in it; `by` names the grouping
 /// ("scene group", "geometry family").
 pub(super) fn write_group_tables(table: &mut String, rows: &[GroupRow], by: &str) {
     let width = rows.iter().map(|r| r.group.len()).max().unwrap_or(0).max(7);
@@ -67,7 +68,7 @@ pub(super) fn write_group_tables(table: &mut String, rows: &[GroupRow], by: &str
         for kind in matscan_estimate::PIPELINE_ORDER {
             let _ = write!(table, " {:>12}", kind.name());
         }
-        let _ = writeln!(table, " {:>9}", "median s");
+        let _ = writeln!(table, " {:>9} {:>9}", "median s", "measure s");
         for row in rows {
             let _ = write!(table, "{:<width$} {:>3}", row.group, row.scenes);
             for kind in matscan_estimate::PIPELINE_ORDER {
@@ -80,7 +81,11 @@ pub(super) fn write_group_tables(table: &mut String, rows: &[GroupRow], by: &str
                     }
                 }
             }
-            let _ = writeln!(table, " {:>9.2}", row.median_seconds);
+            let _ = writeln!(
+                table,
+                " {:>9.2} {:>9.2}",
+                row.median_seconds, row.median_measure_seconds
+            );
         }
     }
 }
@@ -102,8 +107,8 @@ pub(super) fn write_scene_table(table: &mut String, results: &[SceneResult]) {
         .max(5);
     let _ = write!(
         table,
-        "\nper scene: run time and MAD\n{:<width$} {:<18} {:>8}",
-        "scene", "group", "seconds"
+        "\nper scene: run time and MAD\n{:<width$} {:<18} {:>8} {:>9}",
+        "scene", "group", "seconds", "measure s"
     );
     for kind in matscan_estimate::PIPELINE_ORDER {
         let _ = write!(table, " {:>12}", kind.name());
@@ -112,10 +117,11 @@ pub(super) fn write_scene_table(table: &mut String, results: &[SceneResult]) {
     for r in results {
         let _ = write!(
             table,
-            "{:<width$} {:<18} {:>8.2}",
+            "{:<width$} {:<18} {:>8.2} {:>9.2}",
             name(r),
             r.group,
-            r.seconds
+            r.seconds,
+            r.measure_seconds
         );
         for kind in matscan_estimate::PIPELINE_ORDER {
             match r.metrics.get(&kind) {
@@ -162,7 +168,7 @@ pub(super) fn write_csv_rows(
             let b = row.baseline.get(&kind);
             let _ = writeln!(
                 csv,
-                "{table},{count},{},,{},{},{},{},{},{},{},{},{},{},",
+                "{table},{count},{},,{},{},{},{},{},{},{},{},{},{},,{}",
                 csv_field(&row.group),
                 kind.name(),
                 m.n,
@@ -174,6 +180,7 @@ pub(super) fn write_csv_rows(
                 csv_number(b.map(|b| b.psnr)),
                 csv_number(thesis.get(&kind).copied()),
                 csv_number(Some(row.median_seconds)),
+                csv_number(Some(row.median_measure_seconds)),
             );
         }
     }
@@ -182,7 +189,7 @@ pub(super) fn write_csv_rows(
             let b = r.baseline.get(kind);
             let _ = writeln!(
                 csv,
-                "scene,{count},{},{},{},1,{},{},{},{},{},{},{},{},",
+                "scene,{count},{},{},{},1,{},{},{},{},{},{},{},{},,{}",
                 csv_field(&r.group),
                 csv_field(&r.scan.display().to_string()),
                 kind.name(),
@@ -194,6 +201,7 @@ pub(super) fn write_csv_rows(
                 csv_number(b.map(|b| b.psnr)),
                 csv_number(thesis.get(kind).copied()),
                 csv_number(Some(r.seconds)),
+                csv_number(Some(r.measure_seconds)),
             );
         }
     }

@@ -20,7 +20,7 @@ use std::collections::BTreeMap;
 use std::path::PathBuf;
 
 /// Header of the CSV `--csv` writes.
-pub const CSV_HEADER: &str = "table,views,group,scan,param,scans,mad,mse,psnr,baseline_mad,baseline_mse,baseline_psnr,thesis_mad,seconds,ssim";
+pub const CSV_HEADER: &str = "table,views,group,scan,param,scans,mad,mse,psnr,baseline_mad,baseline_mse,baseline_psnr,thesis_mad,seconds,ssim,measure_seconds";
 
 /// The name of the row over every scene.
 pub const ALL_GROUP: &str = "ALL";
@@ -114,6 +114,9 @@ pub struct SceneResult {
     pub family: String,
     /// The estimate's own run time (`total_s`: writing excluded).
     pub seconds: f64,
+    /// Of `seconds`, the backlight's and the checkers' measurements
+    /// (`backlight_s + scattering_s`: 0 where neither ran).
+    pub measure_seconds: f64,
     /// Error of each estimated parameter against the truth.
     pub metrics: BTreeMap<Param, ErrorMetrics>,
     /// Error of the trivial baseline (a constant map) on the same pixels.
@@ -163,6 +166,8 @@ pub struct GroupRow {
     pub scenes: usize,
     /// Median run time over those scenes.
     pub median_seconds: f64,
+    /// Median over those scenes of [`SceneResult::measure_seconds`].
+    pub median_measure_seconds: f64,
     /// Mean error per parameter (parameters estimated on no scene absent).
     pub estimate: BTreeMap<Param, Means>,
     /// Mean baseline error per parameter.
@@ -191,10 +196,12 @@ fn row(group: &str, scenes: &[&SceneResult]) -> GroupRow {
             .collect()
     };
     let seconds: Vec<f64> = scenes.iter().map(|s| s.seconds).collect();
+    let measure: Vec<f64> = scenes.iter().map(|s| s.measure_seconds).collect();
     GroupRow {
         group: group.to_string(),
         scenes: scenes.len(),
         median_seconds: median(&seconds),
+        median_measure_seconds: median(&measure),
         estimate: per_param(|s| &s.metrics),
         baseline: per_param(|s| &s.baseline),
     }
@@ -263,6 +270,7 @@ mod tests {
             group: group.into(),
             family: "sphere".into(),
             seconds,
+            measure_seconds: seconds / 10.0,
             metrics: [(
                 Param::Roughness,
                 metrics(roughness_mad, roughness_mad * 0.1, 20.0),
@@ -317,6 +325,7 @@ mod tests {
         let two = &rows[0];
         assert_eq!(two.scenes, 2);
         assert!((two.median_seconds - 2.0).abs() < 1e-12);
+        assert!((two.median_measure_seconds - 0.2).abs() < 1e-12);
         let r = two.estimate[&Param::Roughness];
         assert_eq!(r.n, 2);
         assert!((r.mad - 0.2).abs() < 1e-12);
@@ -329,6 +338,7 @@ mod tests {
         assert_eq!(all.scenes, 3);
         assert!((all.estimate[&Param::Roughness].mad - 1.3 / 3.0).abs() < 1e-12);
         assert!((all.median_seconds - 3.0).abs() < 1e-12);
+        assert!((all.median_measure_seconds - 0.3).abs() < 1e-12);
         assert!((all.baseline[&Param::Roughness].mad - 0.5).abs() < 1e-12);
     }
 

@@ -304,7 +304,7 @@ impl TextureTable {
         for (p, [mad, mse, psnr, n]) in &self.params {
             let _ = writeln!(
                 csv,
-                "texture,{views},ALL,,{},{n},{},{},{},,,,,,",
+                "texture,{views},ALL,,{},{n},{},{},{},,,,,,,",
                 p.name(),
                 csv_number(Some(mad / n)),
                 csv_number(Some(mse / n)),
@@ -314,7 +314,7 @@ impl TextureTable {
         for (name, [mad, mse, psnr, ssim, zp, zs, n]) in self.ordered_renders() {
             let _ = writeln!(
                 csv,
-                "render,{views},ALL,,{name},{n},{},{},{},,,,,,{}",
+                "render,{views},ALL,,{name},{n},{},{},{},,,,,,{},",
                 csv_number(Some(mad / n)),
                 csv_number(Some(mse / n)),
                 csv_number(Some(psnr / n)),
@@ -322,7 +322,7 @@ impl TextureTable {
             );
             let _ = writeln!(
                 csv,
-                "render-noise,{views},ALL,,{name},{n},,,{},,,,,,{}",
+                "render-noise,{views},ALL,,{name},{n},,,{},,,,,,{},",
                 csv_number(Some(zp / n)),
                 csv_number(Some(zs / n)),
             );
