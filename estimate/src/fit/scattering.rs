@@ -66,6 +66,10 @@ pub const GRID: [f32; 8] = [0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.7, 1.0];
 /// The grid point the search starts from ([`descend`]): 0.3.
 pub const START: usize = 3;
 
+/// How many times the least coarse residual the first point's must be for
+/// the fine search to leave it out ([`search`]).
+pub const FIRST_POINT_FAR: f64 = 2.0;
+
 /// The coarse search's samples per cell ([`ScatteringOptions::search_samples`]).
 pub const SEARCH_SAMPLES: u32 = 64;
 
@@ -109,10 +113,11 @@ pub enum SubsurfaceFit {
         /// grid point.
         residual: f64,
         /// The same at no subsurface: how much better scattering explains
-        /// the photos.
+        /// the photos (at the coarse search's samples where the fine search
+        /// left no subsurface out, [`search`]).
         residual_without: f64,
-        /// Every rendered subsurface and its residual, in grid order: how
-        /// sharply the photos single out `value`.
+        /// Every subsurface rendered at the full samples and its residual,
+        /// in grid order: how sharply the photos single out `value`.
         curve: Vec<[f64; 2]>,
         cells: usize,
         /// Time the renders took, s.
@@ -311,15 +316,17 @@ pub fn measure(
         let render = FlashRender { samples, ..render };
         share_residual(&photos.light, &render.light(&material), cells)
     };
-    let residuals = if options.search_samples < options.samples {
-        search(
+    let (residuals, coarse) = if options.search_samples < options.samples {
+        let s = search(
             GRID.len(),
             START,
             |g| residual(options.search_samples, g),
             |g| residual(options.samples, g),
-        )
+        );
+        (s.fine, s.coarse)
     } else {
-        descend(GRID.len(), START, |g| residual(options.samples, g))
+        let r = descend(GRID.len(), START, |g| residual(options.samples, g));
+        (r.clone(), r)
     };
     let Some(best) = least(&residuals) else {
         return SubsurfaceFit::Blind {
@@ -333,7 +340,7 @@ pub fn measure(
     SubsurfaceFit::Measured {
         value: refined(&GRID, &filled, best),
         residual: filled[best],
-        residual_without: filled[0],
+        residual_without: residuals[0].or(coarse[0]).unwrap_or(f64::NAN),
         curve: GRID
             .iter()
             .zip(&residuals)
@@ -434,16 +441,23 @@ impl FlashRender<'_> {
 /// more the random walk), so the curve may step between it and the rest;
 /// it is also the reference "without". Where the first renders give no
 /// finite residual, every point is rendered.
-pub fn descend(
+pub fn descend(len: usize, start: usize, residual: impl FnMut(usize) -> f64) -> Vec<Option<f64>> {
+    walk(len, start, true, residual)
+}
+
+/// [`descend`], the first point rendered up front only where `with_first`
+/// (else only when the walk reaches it).
+fn walk(
     len: usize,
     start: usize,
+    with_first: bool,
     mut residual: impl FnMut(usize) -> f64,
 ) -> Vec<Option<f64>> {
     let mut r: Vec<Option<f64>> = vec![None; len];
     let start = start.min(len.saturating_sub(1));
     let first = start.saturating_sub(1)..(start + 2).min(len);
     for (g, v) in r.iter_mut().enumerate() {
-        if g == 0 || first.contains(&g) {
+        if (with_first && g == 0) || first.contains(&g) {
             *v = Some(residual(g));
         }
     }
@@ -475,15 +489,31 @@ pub fn descend(
 /// minimum). The candidates share their random numbers at either count of
 /// samples, so the coarse curve has the fine one's shape and its noise
 /// moves the least point by a grid step at most; the fine search walks that
-/// step. Returns the fine residuals.
+/// step. The first point is left to the walk (rendered only if it reaches
+/// it) where the coarse search's least point is two or more steps from it
+/// and the coarse residual there is more than [`FIRST_POINT_FAR`] times
+/// the least: another model's step that large is not noise.
 pub fn search(
     len: usize,
     start: usize,
     coarse: impl FnMut(usize) -> f64,
     fine: impl FnMut(usize) -> f64,
-) -> Vec<Option<f64>> {
-    let first = least(&descend(len, start, coarse)).unwrap_or(start);
-    descend(len, first, fine)
+) -> Searched {
+    let coarse = descend(len, start, coarse);
+    let first = least(&coarse).unwrap_or(start);
+    let far = first >= 2
+        && matches!((coarse[0], coarse[first]), (Some(a), Some(b)) if a > FIRST_POINT_FAR * b);
+    Searched {
+        fine: walk(len, first, !far, fine),
+        coarse,
+    }
+}
+
+/// What [`search`] rendered: the residuals at its coarse and its fine
+/// samples.
+pub struct Searched {
+    pub coarse: Vec<Option<f64>>,
+    pub fine: Vec<Option<f64>>,
 }
 
 /// The grid point with the least finite residual among those rendered.
@@ -600,17 +630,24 @@ mod tests {
             let off = (minimum + 1).min(7);
             let coarse = |g: usize| (g as f64 - off as f64).powi(2) + 1.0;
             let mut fine_calls = Vec::new();
-            let r = search(8, START, coarse, |g| {
+            let searched = search(8, START, coarse, |g| {
                 fine_calls.push(g);
                 curve(g)
             });
+            let r = searched.fine;
             assert_eq!(least(&r), Some(minimum), "minimum {minimum}");
-            assert!(r[0].is_some(), "the first point is always rendered");
-            // The first point, the coarse least point and its neighbours,
-            // then the one step downhill to the fine least point and its
-            // far neighbour.
-            let mut expected: Vec<usize> = [0, off.saturating_sub(1), off, off + 1]
+            assert!(searched.coarse[0].is_some(), "always rendered coarse");
+            // The coarse curve puts the first point at off^2 + 1 against
+            // its least 1: left out from two steps off, unless the walk
+            // comes down to its neighbour.
+            assert_eq!(r[0].is_some(), minimum <= 1, "minimum {minimum}");
+            // The coarse least point and its neighbours (the first point
+            // where it is near), then the one step downhill to the fine
+            // least point and its far neighbour.
+            let first = (off < 2).then_some(0);
+            let mut expected: Vec<usize> = [off.saturating_sub(1), off, off + 1]
                 .into_iter()
+                .chain(first)
                 .chain((minimum != off).then(|| minimum.saturating_sub(1)))
                 .filter(|&g| g < 8)
                 .collect();
@@ -622,7 +659,19 @@ mod tests {
         }
         // A coarse search that sees nothing leaves the fine one its start.
         let r = search(8, START, |_| f64::NAN, |g| (g as f64 - 5.0).abs());
-        assert_eq!(least(&r), Some(5));
+        assert_eq!(least(&r.fine), Some(5));
+        // A first point near the least coarse residual is rendered fine
+        // too, however far from it.
+        let near = |g: usize| {
+            if g == 0 {
+                1.5
+            } else {
+                0.2 * (g as f64 - 5.0).abs() + 1.0
+            }
+        };
+        let r = search(8, START, near, near);
+        assert_eq!(least(&r.fine), Some(5));
+        assert!(r.fine[0].is_some());
     }
 
     #[test]
