@@ -114,7 +114,7 @@ pub enum SubsurfaceFit {
         residual: f64,
         /// The same at no subsurface: how much better scattering explains
         /// the photos (at the coarse search's samples where the fine search
-        /// left no subsurface out, [`search`]).
+        /// did not render subsurface 0, [`search`]).
         residual_without: f64,
         /// Every subsurface rendered at the full samples and its residual,
         /// in grid order: how sharply the photos single out `value`.
@@ -446,7 +446,8 @@ pub fn descend(len: usize, start: usize, residual: impl FnMut(usize) -> f64) -> 
 }
 
 /// [`descend`], the first point rendered up front only where `with_first`
-/// (else only when the walk reaches it).
+/// (else only when the walk reaches it, or when the first renders give no
+/// finite residual and every point is rendered).
 fn walk(
     len: usize,
     start: usize,
@@ -484,15 +485,15 @@ fn walk(
 
 /// [`descend`] twice: with the cheap `coarse` residual from `start`, then
 /// with the `fine` one from the coarse search's least point, so the fine
-/// renders are that point, its neighbours and the first point (and any
-/// step further downhill where the coarse search landed beside the fine
-/// minimum). The candidates share their random numbers at either count of
+/// renders are that point and its neighbours (and any step further
+/// downhill where the coarse search landed beside the fine minimum), and
+/// the first point unless the coarse search set it apart (below). The
+/// candidates share their random numbers at either count of
 /// samples, so the coarse curve has the fine one's shape and its noise
 /// moves the least point by a grid step at most; the fine search walks that
 /// step. The first point is left to the walk (rendered only if it reaches
-/// it) where the coarse search's least point is two or more steps from it
-/// and the coarse residual there is more than [`FIRST_POINT_FAR`] times
-/// the least: another model's step that large is not noise.
+/// it) where its coarse residual is more than [`FIRST_POINT_FAR`] times the
+/// least: another model's step that large is not noise.
 pub fn search(
     len: usize,
     start: usize,
@@ -501,8 +502,9 @@ pub fn search(
 ) -> Searched {
     let coarse = descend(len, start, coarse);
     let first = least(&coarse).unwrap_or(start);
-    let far = first >= 2
-        && matches!((coarse[0], coarse[first]), (Some(a), Some(b)) if a > FIRST_POINT_FAR * b);
+    // A least point at or beside the first point renders it anyway (the
+    // walk's first window), so the ratio alone decides.
+    let far = matches!((coarse[0], coarse[first]), (Some(a), Some(b)) if a > FIRST_POINT_FAR * b);
     Searched {
         fine: walk(len, first, !far, fine),
         coarse,
@@ -672,6 +674,10 @@ mod tests {
         let r = search(8, START, near, near);
         assert_eq!(least(&r.fine), Some(5));
         assert!(r.fine[0].is_some());
+        // Left out up front, the first point is still rendered where the
+        // first renders show nothing.
+        let r = walk(8, 5, false, |_| f64::NAN);
+        assert!(r.iter().all(Option::is_some), "{r:?}");
     }
 
     #[test]
