@@ -316,17 +316,19 @@ pub fn measure(
         let render = FlashRender { samples, ..render };
         share_residual(&photos.light, &render.light(&material), cells)
     };
-    let (residuals, coarse) = if options.search_samples < options.samples {
+    // Subsurface 0's coarse residual, which stands in where the fine
+    // search did not render 0.
+    let (residuals, coarse_without) = if options.search_samples < options.samples {
         let s = search(
             GRID.len(),
             START,
             |g| residual(options.search_samples, g),
             |g| residual(options.samples, g),
         );
-        (s.fine, s.coarse)
+        (s.fine, s.coarse[0])
     } else {
         let r = descend(GRID.len(), START, |g| residual(options.samples, g));
-        (r.clone(), r)
+        (r, None)
     };
     let Some(best) = least(&residuals) else {
         return SubsurfaceFit::Blind {
@@ -340,7 +342,7 @@ pub fn measure(
     SubsurfaceFit::Measured {
         value: refined(&GRID, &filled, best),
         residual: filled[best],
-        residual_without: residuals[0].or(coarse[0]).unwrap_or(f64::NAN),
+        residual_without: residuals[0].or(coarse_without).unwrap_or(f64::NAN),
         curve: GRID
             .iter()
             .zip(&residuals)
