@@ -4,7 +4,8 @@
 //! estimate's reference position (its `result.toml`) grouped by their truth material (basecolor,
 //! roughness, metallic, transmission and subsurface rounded to 0.01), and
 //! per group of at least 2 % of the object its truth, the estimate's
-//! median and the group's mean absolute error per parameter. A
+//! median and the group's mean absolute error per parameter, then the
+//! truth's basecolor and the estimate's median per channel. A
 //! development probe for choosing what to measure next, not part of the
 //! product; per-pixel kinds (multimat, realworld) split into many small
 //! groups and are skipped.
@@ -52,7 +53,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .ok_or("usage: material_errors DIR [ESTIMATES]")?,
     );
     let estimates = args.get(2).map(Path::new);
-    println!("scan | pixels | truth bc r m t s | estimate bc r m t s | MAD bc r m t s");
+    println!(
+        "scan | pixels | truth bc r m t s | estimate bc r m t s | MAD bc r m t s | rgb truth / estimate"
+    );
     for scan in matscan_scan::bundle::find_bundles(root)? {
         let bundle = Bundle::open(&scan)?;
         let name = scan
@@ -111,8 +114,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 ));
             }
             let bc = (k[0] + k[1] + k[2]) as f32 / 300.0;
+            let rgb: Vec<f32> = (0..3)
+                .map(|c| median(px.iter().map(|&i| est[0][3 * i + c]).collect()))
+                .collect();
             println!(
-                "{kind}/{name} | {:5} | {:.2} {:.2} {:.0} {:.2} {:.2} | {:.2} {:.2} {:.2} {:.2} {:.2} | {:.3} {:.3} {:.3} {:.3} {:.3}",
+                "{kind}/{name} | {:5} | {:.2} {:.2} {:.0} {:.2} {:.2} | {:.2} {:.2} {:.2} {:.2} {:.2} | {:.3} {:.3} {:.3} {:.3} {:.3} | rgb {:.2} {:.2} {:.2} / {:.2} {:.2} {:.2}",
                 px.len(),
                 bc,
                 k[3] as f32 / 100.0,
@@ -121,6 +127,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 k[6] as f32 / 100.0,
                 med[0], med[1], med[2], med[3], med[4],
                 mad[0], mad[1], mad[2], mad[3], mad[4],
+                k[0] as f32 / 100.0,
+                k[1] as f32 / 100.0,
+                k[2] as f32 / 100.0,
+                rgb[0],
+                rgb[1],
+                rgb[2],
             );
         }
     }

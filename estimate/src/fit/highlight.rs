@@ -187,6 +187,48 @@ fn rgb(c: [f32; 3]) -> String {
     format!("({:.2}, {:.2}, {:.2})", c[0], c[1], c[2])
 }
 
+/// Two independent readings of one material's texture, per channel: each
+/// pixel's value over its reading's mean, less 1 (the fit's own
+/// least-squares answer, and the networks'). Where the material has a
+/// texture both readings show it and their deviations agree; where it has
+/// none each carries only its own error (a lobe's tail, a network's
+/// guess), and the two do not agree. Their covariance estimates the true
+/// texture's variance (the errors, being independent, average out of it),
+/// so the share of the combined reading's variance it makes up is how much
+/// of that reading to keep: a Wiener gain, with no threshold to tune.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TextureReadings {
+    /// Sum over the pixels of the two deviations' product.
+    cross: [f64; 3],
+    /// Sum over the pixels of their mean's square.
+    spread: [f64; 3],
+}
+
+impl TextureReadings {
+    /// Adds one pixel's deviations in channel `c`.
+    pub fn add(&mut self, c: usize, own: f64, networks: f64) {
+        if own.is_finite() && networks.is_finite() {
+            self.cross[c] += own * networks;
+            let mean = 0.5 * (own + networks);
+            self.spread[c] += mean * mean;
+        }
+    }
+
+    /// Per channel, the share in [0, 1] of the combined reading's
+    /// deviation that is texture: 0 where the readings do not agree (or
+    /// show none), 1 where they agree exactly.
+    pub fn kept(&self) -> [f32; 3] {
+        std::array::from_fn(|c| {
+            let (cross, spread) = (self.cross[c], self.spread[c]);
+            if spread > 0.0 && cross.is_finite() {
+                (cross / spread).clamp(0.0, 1.0) as f32
+            } else {
+                0.0
+            }
+        })
+    }
+}
+
 /// The `x` in [0, 1] with `b·x + q·x² = o`: the secant answer, then
 /// Newton steps for the curvature (the multiple-scattering term of a rough
 /// metal).
@@ -373,5 +415,51 @@ mod tests {
             reason: "no highlight".into(),
         };
         assert_eq!(checked(blind.clone(), [0.5; 3], &options), blind);
+    }
+
+    /// A deterministic stand-in for noise: a hash of `i` in [-1, 1].
+    fn jitter(i: u64, seed: u64) -> f64 {
+        let mut x = i.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ seed;
+        x ^= x >> 31;
+        x = x.wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        x ^= x >> 29;
+        (x % 20001) as f64 / 10000.0 - 1.0
+    }
+
+    #[test]
+    fn readings_that_share_a_texture_keep_it_and_independent_errors_are_dropped() {
+        let mut readings = TextureReadings::default();
+        for i in 0..4000u64 {
+            // Red: a texture of amplitude 0.3 both readings see, each
+            // with an error a tenth of it. Green: no texture, errors of
+            // 0.2 each, independent. Blue: the same texture and no error.
+            let texture = 0.3 * jitter(i, 1);
+            readings.add(
+                0,
+                texture + 0.03 * jitter(i, 2),
+                texture + 0.03 * jitter(i, 3),
+            );
+            readings.add(1, 0.2 * jitter(i, 4), 0.2 * jitter(i, 5));
+            readings.add(2, texture, texture);
+        }
+        let kept = readings.kept();
+        assert!(kept[0] > 0.97 && kept[0] < 1.0, "{kept:?}");
+        assert!(kept[1] < 0.05, "{kept:?}");
+        assert_eq!(kept[2], 1.0);
+    }
+
+    #[test]
+    fn readings_that_disagree_or_show_nothing_keep_no_texture() {
+        let mut opposed = TextureReadings::default();
+        let mut flat = TextureReadings::default();
+        for i in 0..100u64 {
+            let d = 0.2 * jitter(i, 7);
+            opposed.add(0, d, -d);
+            flat.add(0, 0.0, 0.0);
+            opposed.add(1, f64::NAN, d);
+            flat.add(1, f64::INFINITY, 0.0);
+        }
+        assert_eq!(opposed.kept(), [0.0; 3]);
+        assert_eq!(flat.kept(), [0.0; 3]);
     }
 }

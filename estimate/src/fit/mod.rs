@@ -67,7 +67,7 @@ use crate::refine::observe::{
 };
 use crate::refine::RefineError;
 use backlight::{measure_backlight, Backlight, BacklightOptions, MaterialBacklight, Passage};
-use highlight::{HighlightColour, HighlightOptions};
+use highlight::{HighlightColour, HighlightOptions, TextureReadings};
 use linear::{
     footprint_alpha2, responses, solve, solve_pulled, LinearFit, Noise, Pull, Response, Sample,
 };
@@ -327,6 +327,11 @@ pub struct MaterialFit {
     /// ([`highlight::colour`]), or why they cannot say.
     #[serde(default)]
     pub highlight: Option<HighlightColour>,
+    /// A metal given its highlights' colour: per channel, the share of its
+    /// pixels' texture kept, where the fit's own and the networks' readings
+    /// agree ([`Fitted::metal_basecolor_into`]).
+    #[serde(default)]
+    pub texture_kept: Option<[f32; 3]>,
     /// A scattering material whose roughness its views near the mirror
     /// direction pinned ([`lobe`]): how many of its pixels had such a view.
     #[serde(default)]
@@ -504,25 +509,37 @@ impl Fitted {
 
 impl Fitted {
     /// Gives the pixels of each metal whose highlights measured its colour
-    /// ([`MaterialFit::highlight`]) that colour as their mean: `basecolor`
-    /// (the networks' answer) keeps its texture within the material and
-    /// takes the measured colour, channel by channel. Returns the share of
-    /// the fitted pixels written.
-    pub fn metal_basecolor_into(&self, basecolor: &mut [[f32; 3]]) -> f32 {
+    /// ([`MaterialFit::highlight`]) that colour as their mean, and of the
+    /// texture within it the share its two readings agree on
+    /// ([`TextureReadings`]): the fit's own per-pixel answers and
+    /// `basecolor` (the networks' answer, which this overwrites), each
+    /// relative to its mean over the material. The share kept, per
+    /// channel, goes into the material's `texture_kept`. Returns the share
+    /// of the fitted pixels written.
+    pub fn metal_basecolor_into(&mut self, basecolor: &mut [[f32; 3]]) -> f32 {
         let count = self.materials.len();
-        let mut sums = vec![([0.0f64; 3], 0usize); count];
-        for (b, label) in basecolor.iter().zip(&self.labels) {
-            if let Some(j) = *label {
-                if b.iter().all(|v| v.is_finite()) {
-                    for (s, v) in sums[j].0.iter_mut().zip(b) {
-                        *s += f64::from(*v);
-                    }
-                    sums[j].1 += 1;
+        let networks = channel_means(basecolor, &self.labels, count);
+        let own = channel_means(&self.basecolor, &self.labels, count);
+        let deviation = |v: f32, mean: Option<f64>| match mean {
+            Some(m) if v.is_finite() => Some(f64::from(v) / m - 1.0),
+            _ => None,
+        };
+        let mut readings = vec![TextureReadings::default(); count];
+        for ((b, f), label) in basecolor.iter().zip(&self.basecolor).zip(&self.labels) {
+            let Some(j) = *label else {
+                continue;
+            };
+            for c in 0..3 {
+                if let (Some(x), Some(y)) =
+                    (deviation(f[c], own[j][c]), deviation(b[c], networks[j][c]))
+                {
+                    readings[j].add(c, x, y);
                 }
             }
         }
+        let kept: Vec<[f32; 3]> = readings.iter().map(TextureReadings::kept).collect();
         let (mut written, mut fitted) = (0usize, 0usize);
-        for (b, label) in basecolor.iter_mut().zip(&self.labels) {
+        for ((b, f), label) in basecolor.iter_mut().zip(&self.basecolor).zip(&self.labels) {
             let Some(j) = *label else {
                 continue;
             };
@@ -534,20 +551,26 @@ impl Fitted {
             else {
                 continue;
             };
-            let (sum, n) = sums[j];
             for c in 0..3 {
-                let mean = if n > 0 { sum[c] / n as f64 } else { 0.0 };
-                let own = f64::from(b[c]);
-                // A channel the networks left black carries no texture to
-                // keep.
-                let v = if mean > 1e-3 && own.is_finite() {
-                    own * f64::from(colour[c]) / mean
-                } else {
-                    f64::from(colour[c])
+                // A pixel where either reading is missing (a channel read
+                // black has no texture to read) takes the colour alone.
+                let texture = match (deviation(f[c], own[j][c]), deviation(b[c], networks[j][c])) {
+                    (Some(x), Some(y)) => 0.5 * (x + y),
+                    _ => 0.0,
                 };
-                b[c] = (v as f32).clamp(0.0, 1.0);
+                let v = f64::from(colour[c]) * (1.0 + f64::from(kept[j][c]) * texture);
+                b[c] = if v.is_finite() {
+                    (v as f32).clamp(0.0, 1.0)
+                } else {
+                    colour[c].clamp(0.0, 1.0)
+                };
             }
             written += 1;
+        }
+        for (m, k) in self.materials.iter_mut().zip(kept) {
+            if m.highlight.as_ref().and_then(|h| h.colour()).is_some() {
+                m.texture_kept = Some(k);
+            }
         }
         if fitted == 0 {
             0.0
@@ -555,6 +578,34 @@ impl Fitted {
             written as f32 / fitted as f32
         }
     }
+}
+
+/// Per material and channel, the mean of `values` over its pixels, where
+/// it is above 1e-3 (a reading of about black has no texture to compare).
+fn channel_means(
+    values: &[[f32; 3]],
+    labels: &[Option<usize>],
+    count: usize,
+) -> Vec<[Option<f64>; 3]> {
+    let mut sums = vec![([0.0f64; 3], 0usize); count];
+    for (v, label) in values.iter().zip(labels) {
+        if let Some(j) = *label {
+            if j < count && v.iter().all(|x| x.is_finite()) {
+                for (s, x) in sums[j].0.iter_mut().zip(v) {
+                    *s += f64::from(*x);
+                }
+                sums[j].1 += 1;
+            }
+        }
+    }
+    sums.iter()
+        .map(|(sum, n)| {
+            std::array::from_fn(|c| {
+                let mean = sum[c] / (*n).max(1) as f64;
+                (*n > 0 && mean > 1e-3).then_some(mean)
+            })
+        })
+        .collect()
 }
 
 /// One pixel's cost and basecolor at each grid point (metallic-major),
@@ -1559,6 +1610,7 @@ fn choose(
         global_share: None,
         transmission: None,
         highlight: None,
+        texture_kept: None,
         lobe_pixels: None,
         neighbourhood_pixels: None,
         subsurface: None,

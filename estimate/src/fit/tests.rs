@@ -493,6 +493,7 @@ fn pinned_roughness_replaces_only_the_pixels_of_materials_that_pinned_it() {
         global_share: None,
         transmission: None,
         highlight: None,
+        texture_kept: None,
         lobe_pixels: None,
         neighbourhood_pixels: None,
         subsurface: None,
@@ -579,6 +580,7 @@ fn dielectric_basecolor_replaces_only_the_pixels_of_opaque_dielectric_materials(
         global_share: None,
         transmission: None,
         highlight: None,
+        texture_kept: None,
         lobe_pixels: None,
         neighbourhood_pixels: None,
         subsurface: None,
@@ -980,6 +982,7 @@ fn transmission_and_subsurface_are_absent_only_where_the_photos_show_it() {
             global_share: global,
             transmission: None,
             highlight: None,
+            texture_kept: None,
             lobe_pixels: None,
             neighbourhood_pixels: None,
             subsurface: None,
@@ -1111,9 +1114,9 @@ fn a_clear_material_that_passes_backlight_gets_its_transmission_and_basecolor_me
     assert!(fitted.dielectric_basecolor_into(&mut written) > 0.9);
 }
 
-#[test]
-fn a_metals_measured_highlight_colour_becomes_its_mean_over_the_networks_texture() {
-    let metal = |highlight: Option<HighlightColour>| MaterialFit {
+/// A pinned metal of a few pixels whose highlights said `highlight`.
+fn pinned_metal(highlight: Option<HighlightColour>) -> MaterialFit {
+    MaterialFit {
         pixels: 2,
         basecolor: [0.3; 3],
         roughness: 0.3,
@@ -1125,23 +1128,38 @@ fn a_metals_measured_highlight_colour_becomes_its_mean_over_the_networks_texture
         global_share: Some(0.0),
         transmission: None,
         highlight,
+        texture_kept: None,
         lobe_pixels: None,
         neighbourhood_pixels: None,
         subsurface: None,
-    };
+    }
+}
+
+#[test]
+fn a_metals_measured_highlight_colour_becomes_its_mean_with_the_texture_both_readings_show() {
     let materials = vec![
-        metal(Some(HighlightColour::Measured {
+        pinned_metal(Some(HighlightColour::Measured {
             colour: [0.8, 0.4, 0.0],
             observations: 40,
             clipped: 0.0,
         })),
-        metal(Some(HighlightColour::Blind {
+        pinned_metal(Some(HighlightColour::Blind {
             reason: "no highlight".into(),
         })),
-        metal(None),
+        pinned_metal(None),
     ];
-    let fitted = Fitted {
-        basecolor: vec![[0.3; 3]; 6],
+    // Material 0's pixels: the fit's own answers and the networks' agree
+    // that pixel 1 is twice as bright as pixel 0 in red and green; in
+    // blue the networks read black, which holds no texture.
+    let mut fitted = Fitted {
+        basecolor: vec![
+            [0.1, 0.1, 0.2],
+            [0.2, 0.2, 0.2],
+            [0.3; 3],
+            [0.3; 3],
+            [0.3; 3],
+            [0.3; 3],
+        ],
         roughness: vec![0.3; 6],
         metallic: vec![1.0; 6],
         labels: vec![Some(0), Some(0), Some(1), Some(1), Some(2), None],
@@ -1151,8 +1169,6 @@ fn a_metals_measured_highlight_colour_becomes_its_mean_over_the_networks_texture
         seconds: 0.0,
         measured: MeasureSeconds::default(),
     };
-    // The network's texture: one pixel half as bright as the other; a
-    // black blue channel.
     let mut basecolor = vec![
         [0.2, 0.2, 0.0],
         [0.4, 0.4, 0.0],
@@ -1175,4 +1191,39 @@ fn a_metals_measured_highlight_colour_becomes_its_mean_over_the_networks_texture
         basecolor[1]
     );
     assert!(basecolor[2..].iter().all(|&b| b == [0.5; 3]));
+    assert_eq!(fitted.materials[0].texture_kept, Some([1.0, 1.0, 0.0]));
+    assert_eq!(fitted.materials[1].texture_kept, None);
+}
+
+#[test]
+fn a_metals_texture_the_two_readings_disagree_on_is_left_out() {
+    let material = pinned_metal(Some(HighlightColour::Measured {
+        colour: [0.6, 0.5, 0.4],
+        observations: 40,
+        clipped: 0.0,
+    }));
+    // The fit's own answers darken the pixels its lobe's tail covers (0
+    // and 1); the networks' vary the other way: neither is the metal's.
+    let mut fitted = Fitted {
+        basecolor: vec![[0.2; 3], [0.3; 3], [0.6; 3], [0.7; 3]],
+        roughness: vec![0.3; 4],
+        metallic: vec![1.0; 4],
+        labels: vec![Some(0); 4],
+        materials: vec![material],
+        constrained: Constrained::default(),
+        notes: Vec::new(),
+        seconds: 0.0,
+        measured: MeasureSeconds::default(),
+    };
+    let mut basecolor = vec![[0.7; 3], [0.6; 3], [0.3; 3], [0.2; 3]];
+    assert_eq!(fitted.metal_basecolor_into(&mut basecolor), 1.0);
+    for b in &basecolor {
+        assert!(
+            b.iter()
+                .zip([0.6, 0.5, 0.4])
+                .all(|(x, y)| (x - y).abs() < 1e-6),
+            "{b:?}"
+        );
+    }
+    assert_eq!(fitted.materials[0].texture_kept, Some([0.0; 3]));
 }

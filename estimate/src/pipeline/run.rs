@@ -530,7 +530,7 @@ impl Pass<'_> {
                 pinned_roughness_over(&mut values, self.plan, &f);
             }
             if self.method.fit_basecolor_last() {
-                f.constrained.basecolor = measured_basecolor_over(&mut values, self.plan, &f);
+                f.constrained.basecolor = measured_basecolor_over(&mut values, self.plan, &mut f);
             }
             fits.add(self.method, &f, self.bundle, inputs);
         }
@@ -763,7 +763,7 @@ fn measured_over(values: &mut Values, plan: &Plan, fitted: &Fitted, kind: Param)
 /// basecolor only): its own on the materials it reads as opaque
 /// dielectrics, the colour of their highlights on metals; returns the
 /// share of the object it answered.
-fn measured_basecolor_over(values: &mut Values, plan: &Plan, fitted: &Fitted) -> f32 {
+fn measured_basecolor_over(values: &mut Values, plan: &Plan, fitted: &mut Fitted) -> f32 {
     if *plan.decision(Param::Basecolor) != Decision::Estimate {
         return 0.0;
     }
