@@ -327,9 +327,10 @@ pub struct MaterialFit {
     /// ([`highlight::colour`]), or why they cannot say.
     #[serde(default)]
     pub highlight: Option<HighlightColour>,
-    /// A metal given its highlights' colour: per channel, the share of its
-    /// pixels' texture kept, where the fit's own and the networks' readings
-    /// agree ([`Fitted::metal_basecolor_into`]).
+    /// A material whose basecolor mean is its highlights' colour or the
+    /// networks': per channel, the share of its pixels' texture kept, where
+    /// the fit's own and the networks' readings agree
+    /// ([`Fitted::basecolor_texture_into`]).
     #[serde(default)]
     pub texture_kept: Option<[f32; 3]>,
     /// A scattering material whose roughness its views near the mirror
@@ -364,6 +365,15 @@ impl MaterialFit {
     pub fn scatters_none(&self) -> bool {
         self.global_share
             .is_some_and(|s| f64::from(s) < SCATTERING_SHARE)
+    }
+
+    /// Whether the fit's own basecolor answers it: a dielectric that is
+    /// opaque (no light scattered inside, none seen through) or transmits
+    /// what the backlight measured, whose basecolor is its diffuse albedo.
+    pub fn basecolor_fitted(&self) -> bool {
+        self.metallic < 0.5
+            && !self.scattering
+            && (!self.passes_light() || self.transmission.is_some())
     }
 
     /// Whether the photos show the material has no `kind` (transmission
@@ -492,9 +502,7 @@ impl Fitted {
                 continue;
             };
             fitted += 1;
-            // Opaque, or transmitting what the backlight measured.
-            let opaque = !m.scattering && (!m.passes_light() || m.transmission.is_some());
-            if m.metallic < 0.5 && opaque && fit.iter().all(|v| v.is_finite()) {
+            if m.basecolor_fitted() && fit.iter().all(|v| v.is_finite()) {
                 *b = fit.map(|v| v.clamp(0.0, 1.0));
                 written += 1;
             }
@@ -508,15 +516,22 @@ impl Fitted {
 }
 
 impl Fitted {
-    /// Gives the pixels of each metal whose highlights measured its colour
-    /// ([`MaterialFit::highlight`]) that colour as their mean, and of the
-    /// texture within it the share its two readings agree on
-    /// ([`TextureReadings`]): the fit's own per-pixel answers and
-    /// `basecolor` (the networks' answer, which this overwrites), each
-    /// relative to its mean over the material. The share kept, per
-    /// channel, goes into the material's `texture_kept`. Returns the share
-    /// of the fitted pixels written.
-    pub fn metal_basecolor_into(&mut self, basecolor: &mut [[f32; 3]]) -> f32 {
+    /// Gives every material whose basecolor the fit does not answer itself
+    /// ([`MaterialFit::basecolor_fitted`]) the texture its photos support:
+    /// a metal whose highlights measured its colour
+    /// ([`MaterialFit::highlight`]) takes that colour as its mean, any
+    /// other material whose metallic the photos pinned keeps the mean of
+    /// `basecolor` (the networks' answer, which this overwrites); within
+    /// it, the share of the texture its two readings agree on
+    /// ([`TextureReadings`]): the fit's own per-pixel answers and the
+    /// networks', each relative to its mean over the material. A material
+    /// whose metallic is open (a per-pixel map) keeps the networks' answer
+    /// as it is: the fit's reading there is under one metallic for pixels
+    /// of both. The share kept, per channel, goes into the material's
+    /// `texture_kept`. Returns the share of the fitted pixels whose mean
+    /// the photos measured (the metals' highlights).
+    pub fn basecolor_texture_into(&mut self, basecolor: &mut [[f32; 3]]) -> f32 {
+        debug_assert_eq!(basecolor.len(), self.labels.len());
         let count = self.materials.len();
         let networks = channel_means(basecolor, &self.labels, count);
         let own = channel_means(&self.basecolor, &self.labels, count);
@@ -526,7 +541,7 @@ impl Fitted {
         };
         let mut readings = vec![TextureReadings::default(); count];
         for ((b, f), label) in basecolor.iter().zip(&self.basecolor).zip(&self.labels) {
-            let Some(j) = *label else {
+            let Some(j) = label.filter(|&j| j < count) else {
                 continue;
             };
             for c in 0..3 {
@@ -539,16 +554,30 @@ impl Fitted {
         }
         let kept: Vec<[f32; 3]> = readings.iter().map(TextureReadings::kept).collect();
         let (mut written, mut fitted) = (0usize, 0usize);
+        // Per material, the mean it takes, and whether the photos measured it.
+        let means: Vec<Option<([f32; 3], bool)>> = self
+            .materials
+            .iter()
+            .zip(&networks)
+            .map(
+                |(m, n)| match m.highlight.as_ref().and_then(|h| h.colour()) {
+                    Some(colour) => Some((colour, true)),
+                    None if m.metallic_pinned && !m.basecolor_fitted() => {
+                        let [Some(r), Some(g), Some(b)] = *n else {
+                            return None;
+                        };
+                        Some(([r as f32, g as f32, b as f32], false))
+                    }
+                    None => None,
+                },
+            )
+            .collect();
         for ((b, f), label) in basecolor.iter_mut().zip(&self.basecolor).zip(&self.labels) {
-            let Some(j) = *label else {
+            let Some(j) = label.filter(|&j| j < count) else {
                 continue;
             };
             fitted += 1;
-            let Some(colour) = self.materials[j]
-                .highlight
-                .as_ref()
-                .and_then(|h| h.colour())
-            else {
+            let Some((colour, measured)) = means[j] else {
                 continue;
             };
             for c in 0..3 {
@@ -562,13 +591,15 @@ impl Fitted {
                 b[c] = if v.is_finite() {
                     (v as f32).clamp(0.0, 1.0)
                 } else {
-                    colour[c].clamp(0.0, 1.0)
+                    0.0
                 };
             }
-            written += 1;
+            if measured {
+                written += 1;
+            }
         }
-        for (m, k) in self.materials.iter_mut().zip(kept) {
-            if m.highlight.as_ref().and_then(|h| h.colour()).is_some() {
+        for ((m, k), mean) in self.materials.iter_mut().zip(kept).zip(&means) {
+            if mean.is_some() {
                 m.texture_kept = Some(k);
             }
         }

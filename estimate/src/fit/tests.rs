@@ -1177,7 +1177,7 @@ fn a_metals_measured_highlight_colour_becomes_its_mean_with_the_texture_both_rea
         [0.5; 3],
         [0.5; 3],
     ];
-    assert_eq!(fitted.metal_basecolor_into(&mut basecolor), 2.0 / 5.0);
+    assert_eq!(fitted.basecolor_texture_into(&mut basecolor), 2.0 / 5.0);
     let close = |a: [f32; 3], b: [f32; 3]| a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-6);
     assert!(
         close(basecolor[0], [0.8 * 2.0 / 3.0, 0.4 * 2.0 / 3.0, 0.0]),
@@ -1192,7 +1192,85 @@ fn a_metals_measured_highlight_colour_becomes_its_mean_with_the_texture_both_rea
     );
     assert!(basecolor[2..].iter().all(|&b| b == [0.5; 3]));
     assert_eq!(fitted.materials[0].texture_kept, Some([1.0, 1.0, 0.0]));
+    // The metal whose highlights are blind keeps the networks' mean; its
+    // texture, which only the networks read, is none.
+    assert_eq!(fitted.materials[1].texture_kept, Some([0.0; 3]));
+}
+
+#[test]
+fn a_material_the_networks_answer_keeps_their_mean_with_the_agreed_texture_and_an_open_one_is_untouched(
+) {
+    // Material 0: a scattering dielectric whose metallic the photos
+    // pinned; its two readings disagree on the texture. Material 1: the
+    // same with its metallic open (a per-pixel map). Material 2: an
+    // opaque dielectric, whose basecolor is the fit's own.
+    let dielectric = |pinned: bool, scattering: bool| MaterialFit {
+        metallic: 0.0,
+        metallic_pinned: pinned,
+        scattering,
+        highlight: None,
+        ..pinned_metal(None)
+    };
+    let mut fitted = Fitted {
+        basecolor: vec![[0.2; 3], [0.4; 3], [0.2; 3], [0.4; 3], [0.3; 3]],
+        roughness: vec![0.3; 5],
+        metallic: vec![0.0; 5],
+        labels: vec![Some(0), Some(0), Some(1), Some(1), Some(2)],
+        materials: vec![
+            dielectric(true, true),
+            dielectric(false, true),
+            dielectric(true, false),
+        ],
+        constrained: Constrained::default(),
+        notes: Vec::new(),
+        seconds: 0.0,
+        measured: MeasureSeconds::default(),
+    };
+    let networks = vec![[0.6; 3], [0.4; 3], [0.6; 3], [0.4; 3], [0.7; 3]];
+    let mut basecolor = networks.clone();
+    // None of them has a measured mean.
+    assert_eq!(fitted.basecolor_texture_into(&mut basecolor), 0.0);
+    for b in &basecolor[..2] {
+        assert!(b.iter().all(|v| (v - 0.5).abs() < 1e-6), "{b:?}");
+    }
+    assert_eq!(basecolor[2..], networks[2..]);
+    assert_eq!(fitted.materials[0].texture_kept, Some([0.0; 3]));
     assert_eq!(fitted.materials[1].texture_kept, None);
+    assert_eq!(fitted.materials[2].texture_kept, None);
+}
+
+#[test]
+fn a_metals_texture_the_readings_partly_agree_on_is_kept_by_their_agreement() {
+    let mut fitted = Fitted {
+        // The fit's own reading: -1/3 and +1/3 about its mean; a third
+        // pixel at the mean whose networks' value is not finite.
+        basecolor: vec![[0.1; 3], [0.2; 3], [0.15; 3]],
+        roughness: vec![0.3; 3],
+        metallic: vec![1.0; 3],
+        labels: vec![Some(0); 3],
+        materials: vec![pinned_metal(Some(HighlightColour::Measured {
+            colour: [0.6; 3],
+            observations: 40,
+            clipped: 0.0,
+        }))],
+        constrained: Constrained::default(),
+        notes: Vec::new(),
+        seconds: 0.0,
+        measured: MeasureSeconds::default(),
+    };
+    // The networks': -1/6 and +1/6. Covariance 1/9 over the mean
+    // reading's variance 1/8: 8/9 of the mean deviation (-1/4, +1/4) kept.
+    let mut basecolor = vec![[0.25; 3], [0.35; 3], [f32::NAN; 3]];
+    assert_eq!(fitted.basecolor_texture_into(&mut basecolor), 1.0);
+    let expected = [0.6 * 7.0 / 9.0, 0.6 * 11.0 / 9.0, 0.6];
+    for (b, e) in basecolor.iter().zip(expected) {
+        assert!(b.iter().all(|v| (v - e).abs() < 1e-5), "{b:?} against {e}");
+    }
+    let kept = fitted.materials[0].texture_kept.expect("a measured metal");
+    assert!(
+        kept.iter().all(|k| (k - 8.0 / 9.0).abs() < 1e-5),
+        "{kept:?}"
+    );
 }
 
 #[test]
@@ -1216,7 +1294,7 @@ fn a_metals_texture_the_two_readings_disagree_on_is_left_out() {
         measured: MeasureSeconds::default(),
     };
     let mut basecolor = vec![[0.7; 3], [0.6; 3], [0.3; 3], [0.2; 3]];
-    assert_eq!(fitted.metal_basecolor_into(&mut basecolor), 1.0);
+    assert_eq!(fitted.basecolor_texture_into(&mut basecolor), 1.0);
     for b in &basecolor {
         assert!(
             b.iter()

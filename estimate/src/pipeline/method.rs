@@ -45,10 +45,12 @@ pub enum Method {
     /// every lit view measures whatever the lobe. A metal's is its
     /// specular colour, which only its highlights show: a pinned metal
     /// whose pooled highlights measure it ([`crate::fit::highlight`]) takes
-    /// that colour as its mean over the basecolor network's texture. A
-    /// material that scatters light inside reflects it through a medium the
-    /// surface model does not have: there the basecolor network's answer
-    /// stands.
+    /// that colour as its mean. A material that scatters light inside
+    /// reflects it through a medium the surface model does not have: there
+    /// the basecolor network's mean stands. Within every material whose
+    /// metallic the photos pinned and whose basecolor is not the fit's own,
+    /// the texture is the share of the fit's and the network's readings
+    /// they agree on.
     ///
     /// The default: on the `tune` set, with the fit's light chosen per
     /// material, it lowers basecolor's MAD against `fit-specular` from

@@ -761,15 +761,17 @@ fn measured_over(values: &mut Values, plan: &Plan, fitted: &Fitted, kind: Param)
 
 /// Puts what the fit measured of basecolor into `values` (an estimated
 /// basecolor only): its own on the materials it reads as opaque
-/// dielectrics, the colour of their highlights on metals; returns the
-/// share of the object it answered.
+/// dielectrics, the colour of their highlights on metals, and on those and
+/// every other material whose metallic it pinned the share of the
+/// networks' texture its own reading agrees with; returns the share of the
+/// object whose basecolor it measured.
 fn measured_basecolor_over(values: &mut Values, plan: &Plan, fitted: &mut Fitted) -> f32 {
     if *plan.decision(Param::Basecolor) != Decision::Estimate {
         return 0.0;
     }
     match values.basecolor.as_mut() {
         Some(basecolor) => {
-            fitted.dielectric_basecolor_into(basecolor) + fitted.metal_basecolor_into(basecolor)
+            fitted.dielectric_basecolor_into(basecolor) + fitted.basecolor_texture_into(basecolor)
         }
         None => 0.0,
     }
