@@ -392,7 +392,8 @@ impl MaterialFit {
 }
 
 /// Per parameter, the share of the object's pixels whose value the photos
-/// pinned.
+/// pinned (for basecolor: measured, or shaped its texture; see
+/// [`Fitted::basecolor_texture_into`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Constrained {
     pub basecolor: f32,
@@ -527,9 +528,11 @@ impl Fitted {
     /// networks', each relative to its mean over the material. A material
     /// whose metallic is open (a per-pixel map) keeps the networks' answer
     /// as it is: the fit's reading there is under one metallic for pixels
-    /// of both. The share kept, per channel, goes into the material's
-    /// `texture_kept`. Returns the share of the fitted pixels whose mean
-    /// the photos measured (the metals' highlights).
+    /// of both, and so does a material whose networks' mean is about black
+    /// (at most 1e-3) in a channel: there is no texture to compare. The
+    /// share kept, per channel, goes into the material's `texture_kept`.
+    /// Returns the share of the fitted pixels written: the photos measured
+    /// their mean (a metal's highlights) or shaped their texture.
     pub fn basecolor_texture_into(&mut self, basecolor: &mut [[f32; 3]]) -> f32 {
         debug_assert_eq!(basecolor.len(), self.labels.len());
         let count = self.materials.len();
@@ -554,19 +557,19 @@ impl Fitted {
         }
         let kept: Vec<[f32; 3]> = readings.iter().map(TextureReadings::kept).collect();
         let (mut written, mut fitted) = (0usize, 0usize);
-        // Per material, the mean it takes, and whether the photos measured it.
-        let means: Vec<Option<([f32; 3], bool)>> = self
+        // Per material, the mean it takes.
+        let means: Vec<Option<[f32; 3]>> = self
             .materials
             .iter()
             .zip(&networks)
             .map(
                 |(m, n)| match m.highlight.as_ref().and_then(|h| h.colour()) {
-                    Some(colour) => Some((colour, true)),
+                    Some(colour) => Some(colour),
                     None if m.metallic_pinned && !m.basecolor_fitted() => {
                         let [Some(r), Some(g), Some(b)] = *n else {
                             return None;
                         };
-                        Some(([r as f32, g as f32, b as f32], false))
+                        Some([r as f32, g as f32, b as f32])
                     }
                     None => None,
                 },
@@ -577,7 +580,7 @@ impl Fitted {
                 continue;
             };
             fitted += 1;
-            let Some((colour, measured)) = means[j] else {
+            let Some(colour) = means[j] else {
                 continue;
             };
             for c in 0..3 {
@@ -594,9 +597,7 @@ impl Fitted {
                     0.0
                 };
             }
-            if measured {
-                written += 1;
-            }
+            written += 1;
         }
         for ((m, k), mean) in self.materials.iter_mut().zip(kept).zip(&means) {
             if mean.is_some() {

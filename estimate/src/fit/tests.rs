@@ -1172,12 +1172,12 @@ fn a_metals_measured_highlight_colour_becomes_its_mean_with_the_texture_both_rea
     let mut basecolor = vec![
         [0.2, 0.2, 0.0],
         [0.4, 0.4, 0.0],
-        [0.5; 3],
-        [0.5; 3],
+        [0.4; 3],
+        [0.6; 3],
         [0.5; 3],
         [0.5; 3],
     ];
-    assert_eq!(fitted.basecolor_texture_into(&mut basecolor), 2.0 / 5.0);
+    assert_eq!(fitted.basecolor_texture_into(&mut basecolor), 1.0);
     let close = |a: [f32; 3], b: [f32; 3]| a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-6);
     assert!(
         close(basecolor[0], [0.8 * 2.0 / 3.0, 0.4 * 2.0 / 3.0, 0.0]),
@@ -1190,11 +1190,18 @@ fn a_metals_measured_highlight_colour_becomes_its_mean_with_the_texture_both_rea
         "{:?}",
         basecolor[1]
     );
-    assert!(basecolor[2..].iter().all(|&b| b == [0.5; 3]));
+    // The pinned metals whose highlights gave no colour keep the networks'
+    // mean; the texture only the networks read is left out.
+    assert!(
+        basecolor[2..4]
+            .iter()
+            .all(|b| b.iter().all(|v| (v - 0.5).abs() < 1e-6)),
+        "{basecolor:?}"
+    );
+    assert_eq!(basecolor[4..], [[0.5; 3]; 2]);
     assert_eq!(fitted.materials[0].texture_kept, Some([1.0, 1.0, 0.0]));
-    // The metal whose highlights are blind keeps the networks' mean; its
-    // texture, which only the networks read, is none.
     assert_eq!(fitted.materials[1].texture_kept, Some([0.0; 3]));
+    assert_eq!(fitted.materials[2].texture_kept, Some([0.0; 3]));
 }
 
 #[test]
@@ -1212,10 +1219,10 @@ fn a_material_the_networks_answer_keeps_their_mean_with_the_agreed_texture_and_a
         ..pinned_metal(None)
     };
     let mut fitted = Fitted {
-        basecolor: vec![[0.2; 3], [0.4; 3], [0.2; 3], [0.4; 3], [0.3; 3]],
-        roughness: vec![0.3; 5],
-        metallic: vec![0.0; 5],
-        labels: vec![Some(0), Some(0), Some(1), Some(1), Some(2)],
+        basecolor: vec![[0.2; 3], [0.4; 3], [0.2; 3], [0.4; 3], [0.3; 3], [0.35; 3]],
+        roughness: vec![0.3; 6],
+        metallic: vec![0.0; 6],
+        labels: vec![Some(0), Some(0), Some(1), Some(1), Some(2), Some(2)],
         materials: vec![
             dielectric(true, true),
             dielectric(false, true),
@@ -1226,10 +1233,10 @@ fn a_material_the_networks_answer_keeps_their_mean_with_the_agreed_texture_and_a
         seconds: 0.0,
         measured: MeasureSeconds::default(),
     };
-    let networks = vec![[0.6; 3], [0.4; 3], [0.6; 3], [0.4; 3], [0.7; 3]];
+    let networks = vec![[0.6; 3], [0.4; 3], [0.6; 3], [0.4; 3], [0.7; 3], [0.5; 3]];
     let mut basecolor = networks.clone();
-    // None of them has a measured mean.
-    assert_eq!(fitted.basecolor_texture_into(&mut basecolor), 0.0);
+    // Only material 0's pixels are written.
+    assert_eq!(fitted.basecolor_texture_into(&mut basecolor), 2.0 / 6.0);
     for b in &basecolor[..2] {
         assert!(b.iter().all(|v| (v - 0.5).abs() < 1e-6), "{b:?}");
     }
@@ -1258,8 +1265,9 @@ fn a_metals_texture_the_readings_partly_agree_on_is_kept_by_their_agreement() {
         seconds: 0.0,
         measured: MeasureSeconds::default(),
     };
-    // The networks': -1/6 and +1/6. Covariance 1/9 over the mean
-    // reading's variance 1/8: 8/9 of the mean deviation (-1/4, +1/4) kept.
+    // The networks': -1/6 and +1/6. The deviations' summed products, 1/9,
+    // over the mean deviation's summed squares, 1/8: 8/9 of the mean
+    // deviation (-1/4, +1/4) kept.
     let mut basecolor = vec![[0.25; 3], [0.35; 3], [f32::NAN; 3]];
     assert_eq!(fitted.basecolor_texture_into(&mut basecolor), 1.0);
     let expected = [0.6 * 7.0 / 9.0, 0.6 * 11.0 / 9.0, 0.6];

@@ -124,8 +124,9 @@ impl Method {
         matches!(self, Method::FitSpecular | Method::FitDielectric)
     }
 
-    /// Whether the fit's basecolor, on the materials it reads as
-    /// dielectric, replaces the networks' after they have run.
+    /// Whether the fit's basecolor (on the materials it reads as opaque
+    /// dielectrics, and the metals' highlight colours and the agreed
+    /// textures) replaces the networks' after they have run.
     pub fn fit_basecolor_last(self) -> bool {
         self == Method::FitDielectric
     }

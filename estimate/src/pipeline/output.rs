@@ -64,8 +64,11 @@ pub struct ParamResult {
     /// and `networks` for basecolor and roughness; under `fit-specular`,
     /// `hybrid` for metallic and roughness and `networks` for basecolor;
     /// under `fit-dielectric`, `hybrid` for all three (basecolor's
-    /// `constrained` share is then the share of the opaque dielectric
-    /// materials, whose basecolor the fit answered); a parameter whose `constrained` share is 0 is the networks' answer
+    /// `constrained` share is then the share of the materials whose
+    /// basecolor the photos answered or shaped: the opaque dielectrics'
+    /// albedo, the metals' highlight colour, the texture both readings
+    /// agree on of every other material with a pinned metallic); a
+    /// parameter whose `constrained` share is 0 is the networks' answer
     /// everywhere and says `networks` (but under `fit`, which never falls
     /// back).
     #[serde(default, skip_serializing_if = "Option::is_none")]

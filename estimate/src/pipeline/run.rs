@@ -761,10 +761,10 @@ fn measured_over(values: &mut Values, plan: &Plan, fitted: &Fitted, kind: Param)
 
 /// Puts what the fit measured of basecolor into `values` (an estimated
 /// basecolor only): its own on the materials it reads as opaque
-/// dielectrics, the colour of their highlights on metals, and on those and
-/// every other material whose metallic it pinned the share of the
-/// networks' texture its own reading agrees with; returns the share of the
-/// object whose basecolor it measured.
+/// dielectrics; on the metals whose highlights gave a colour that colour,
+/// and on every other material whose metallic it pinned the networks'
+/// mean, each with the share of the texture the fit's and the networks'
+/// readings agree on; returns the share of the object it wrote.
 fn measured_basecolor_over(values: &mut Values, plan: &Plan, fitted: &mut Fitted) -> f32 {
     if *plan.decision(Param::Basecolor) != Decision::Estimate {
         return 0.0;
