@@ -538,26 +538,8 @@ impl Fitted {
         let count = self.materials.len();
         let networks = channel_means(basecolor, &self.labels, count);
         let own = channel_means(&self.basecolor, &self.labels, count);
-        let deviation = |v: f32, mean: Option<f64>| match mean {
-            Some(m) if v.is_finite() => Some(f64::from(v) / m - 1.0),
-            _ => None,
-        };
-        let mut readings = vec![TextureReadings::default(); count];
-        for ((b, f), label) in basecolor.iter().zip(&self.basecolor).zip(&self.labels) {
-            let Some(j) = label.filter(|&j| j < count) else {
-                continue;
-            };
-            for c in 0..3 {
-                if let (Some(x), Some(y)) =
-                    (deviation(f[c], own[j][c]), deviation(b[c], networks[j][c]))
-                {
-                    readings[j].add(c, x, y);
-                }
-            }
-        }
-        let kept: Vec<[f32; 3]> = readings.iter().map(TextureReadings::kept).collect();
-        let (mut written, mut fitted) = (0usize, 0usize);
-        // Per material, the mean it takes.
+        // Per material, the mean it takes (`None`: left as the networks
+        // answered).
         let means: Vec<Option<[f32; 3]>> = self
             .materials
             .iter()
@@ -575,21 +557,46 @@ impl Fitted {
                 },
             )
             .collect();
-        for ((b, f), label) in basecolor.iter_mut().zip(&self.basecolor).zip(&self.labels) {
-            let Some(j) = label.filter(|&j| j < count) else {
-                continue;
+        // A pixel's material and the mean it takes, where it takes one.
+        let material = |label: &Option<usize>| {
+            let j = label.filter(|&j| j < count)?;
+            Some((j, means[j]?))
+        };
+        // A pixel's two deviations in channel `c`, where both readings
+        // have one (a channel read black has no texture to read).
+        let deviations = |j: usize, own_value: &[f32; 3], networks_value: &[f32; 3], c: usize| {
+            let deviation = |v: f32, mean: Option<f64>| {
+                mean.filter(|_| v.is_finite())
+                    .map(|m| f64::from(v) / m - 1.0)
             };
-            fitted += 1;
-            let Some(colour) = means[j] else {
+            Some((
+                deviation(own_value[c], own[j][c])?,
+                deviation(networks_value[c], networks[j][c])?,
+            ))
+        };
+        let mut readings = vec![TextureReadings::default(); count];
+        for ((b, f), label) in basecolor.iter().zip(&self.basecolor).zip(&self.labels) {
+            if let Some((j, _)) = material(label) {
+                for c in 0..3 {
+                    if let Some((x, y)) = deviations(j, f, b, c) {
+                        readings[j].add(c, x, y);
+                    }
+                }
+            }
+        }
+        let kept: Vec<[f32; 3]> = readings.iter().map(TextureReadings::kept).collect();
+        let fitted = self
+            .labels
+            .iter()
+            .filter(|l| l.is_some_and(|j| j < count))
+            .count();
+        let mut written = 0usize;
+        for ((b, f), label) in basecolor.iter_mut().zip(&self.basecolor).zip(&self.labels) {
+            let Some((j, colour)) = material(label) else {
                 continue;
             };
             for c in 0..3 {
-                // A pixel where either reading is missing (a channel read
-                // black has no texture to read) takes the colour alone.
-                let texture = match (deviation(f[c], own[j][c]), deviation(b[c], networks[j][c])) {
-                    (Some(x), Some(y)) => 0.5 * (x + y),
-                    _ => 0.0,
-                };
+                let texture = deviations(j, f, &*b, c).map_or(0.0, |(x, y)| 0.5 * (x + y));
                 let v = f64::from(colour[c]) * (1.0 + f64::from(kept[j][c]) * texture);
                 b[c] = if v.is_finite() {
                     (v as f32).clamp(0.0, 1.0)
