@@ -337,10 +337,22 @@ pub struct MaterialFit {
     /// direction pinned ([`lobe`]): how many of its pixels had such a view.
     #[serde(default)]
     pub lobe_pixels: Option<usize>,
-    /// A material whose photos pinned no metallic: how many of its pixels
-    /// took metallic from their neighbourhood's photos ([`neighbourhood`]).
+    /// A material whose photos pinned no metallic, or a mixed one
+    /// (`metallic_mixed`): how many of its pixels took metallic from their
+    /// neighbourhood's photos ([`neighbourhood`]).
     #[serde(default)]
     pub neighbourhood_pixels: Option<usize>,
+    /// A material whose photos pinned its metallic, the backlight did not:
+    /// the share of its pixels' clear neighbourhood calls (over its own
+    /// pixels) that contradict that call ([`neighbourhood::member_calls`]).
+    #[serde(default)]
+    pub contrary_calls: Option<f32>,
+    /// That share reached [`NeighbourhoodOptions::mixed_share`]: the
+    /// material holds metal and dielectric alike, and its metallic is per
+    /// pixel as an open material's (the neighbourhood's call, else the
+    /// networks').
+    #[serde(default)]
+    pub metallic_mixed: bool,
     /// A dielectric that scatters light inside: its subsurface as the
     /// renders of the scan's object under the flashes measured it
     /// ([`scattering`]), or why they could not.
@@ -1076,6 +1088,9 @@ where
     // cost summed over its pixels, each with its own best basecolor.
     let points = grid.len() * METALLIC_GRID.len();
     let mut materials = Vec::with_capacity(parts.count);
+    // Every blocked material's volumes without the caller's transmission,
+    // which its pixels' neighbourhoods read too.
+    let mut recosted_all: HashMap<usize, Volume> = HashMap::new();
     for j in 0..parts.count {
         let list: Vec<usize> = (0..n).filter(|&i| parts.labels[i] == Some(j)).collect();
         let reading = known
@@ -1194,6 +1209,7 @@ where
         material.backlight = reading;
         material.global_share = share.map(|s| s as f32);
         materials.push(material);
+        recosted_all.extend(recosted);
     }
     if let (Some(b), Some(o)) = (known.backlight, options.backlight.as_ref()) {
         clear_transmission(&mut materials, &parts.labels, b, o, |i, m| {
@@ -1211,13 +1227,6 @@ where
     let fixed_of = |i: usize, m: &MaterialFit| match m.transmission {
         Some(t) => Fixed { transmission: t },
         None => fixed_at(i, m.blocks_light()),
-    };
-    let observed = |i: usize, j: usize| -> &[Sample] {
-        if materials[j].scattering {
-            &total_light[i]
-        } else {
-            direct_at(i)
-        }
     };
 
     // Where a material's photos pin no metallic, a pixel's neighbourhood
@@ -1246,6 +1255,65 @@ where
         }
         _ => vec![None; n],
     };
+    let mut local_metallic = local_metallic;
+    let mut members: Vec<Vec<usize>> = vec![Vec::new(); materials.len()];
+    for (i, label) in parts.labels.iter().enumerate() {
+        if let Some(j) = label {
+            members[*j].push(i);
+        }
+    }
+    // A pinned material whose own pixels' neighbourhoods contradict its
+    // call in a large share of their clear calls holds metal and
+    // dielectric alike (multimat): its metallic stays per pixel. Light
+    // seen through a material rules a metal out, so the backlight's call
+    // stands.
+    if let (Some(o), None) = (options.neighbourhood, known.metallic) {
+        let calls: Vec<Vec<(usize, f32)>> = materials
+            .par_iter()
+            .zip(&members)
+            .map(|(m, list)| {
+                if !m.metallic_pinned || m.passes_light() {
+                    return Vec::new();
+                }
+                let row_of = |i: usize| {
+                    recosted_all
+                        .get(&i)
+                        .or(volumes[i].as_ref())
+                        .map(|v| v.cost.as_slice())
+                };
+                neighbourhood::member_calls(list, row_of, width, grid.len(), &o)
+            })
+            .collect();
+        for (m, calls) in materials.iter_mut().zip(calls) {
+            m.contrary_calls = neighbourhood::contrary_share(&calls, m.metallic).map(|s| s as f32);
+            if m.contrary_calls
+                .is_some_and(|s| f64::from(s) >= o.mixed_share)
+            {
+                m.metallic_mixed = true;
+                for (i, v) in calls {
+                    local_metallic[i] = Some(v);
+                }
+            }
+        }
+    }
+    let observed = |i: usize, j: usize| -> &[Sample] {
+        if materials[j].scattering {
+            &total_light[i]
+        } else {
+            direct_at(i)
+        }
+    };
+    // Each pixel's metallic: a neighbourhood's call, else, where its
+    // material's one call does not hold for all of it, the networks'.
+    let per_pixel = |m: &MaterialFit| !m.metallic_pinned || m.metallic_mixed;
+    let metallic_at = |i: usize, j: usize| -> f32 {
+        let m = &materials[j];
+        match (local_metallic[i], fallback) {
+            (Some(v), _) => v,
+            (None, Some(f)) if per_pixel(m) => f.metallic.get(i).copied().unwrap_or(m.metallic),
+            _ => m.metallic,
+        }
+    };
     // Basecolor per pixel at its material's roughness and metallic, first
     // from its own photos alone; then pulled toward its material's
     // information-weighted mean, which decides only where the photos say
@@ -1256,18 +1324,13 @@ where
             let j = parts.labels[i]?;
             let m = &materials[j];
             let obs = observed(i, j);
-            let r = responses(obs, m.roughness, m.metallic, &fixed_of(i, m));
+            let r = responses(obs, m.roughness, metallic_at(i, j), &fixed_of(i, m));
             let fit = solve(obs, &r, &options.noise);
             Some((r, fit))
         })
         .collect();
-    // A pinned metal's colour from its highlights, pooled over its pixels.
-    let mut members: Vec<Vec<usize>> = vec![Vec::new(); materials.len()];
-    for (i, label) in parts.labels.iter().enumerate() {
-        if let Some(j) = label {
-            members[*j].push(i);
-        }
-    }
+    // A pinned metal's colour from its highlights, pooled over its metal
+    // pixels.
     let highlights: Vec<Option<HighlightColour>> = materials
         .iter()
         .enumerate()
@@ -1277,6 +1340,7 @@ where
             }
             let pooled: Vec<(&Sample, &Response)> = members[j]
                 .iter()
+                .filter(|&&i| metallic_at(i, j) >= 0.5)
                 .filter_map(|&i| Some((observed(i, j), &own[i].as_ref()?.0)))
                 .flat_map(|(obs, r)| obs.iter().zip(r))
                 .collect();
@@ -1324,7 +1388,7 @@ where
                     strength: options.basecolor_pull,
                 }),
             );
-            Some((fit.basecolor, m.roughness, m.metallic))
+            Some((fit.basecolor, m.roughness, metallic_at(i, j)))
         })
         .collect();
 
@@ -1350,21 +1414,16 @@ where
             (Some((b, r, m)), Some(j)) => {
                 out.basecolor[i] = b;
                 out.roughness[i] = r;
-                // Where the material's photos pin no metallic, the answer
-                // stays per pixel (the neighbourhood's call, else the
-                // networks'): metal and dielectric can alternate within
-                // one colour, which one call from their median would
-                // throw away (multimat).
-                out.metallic[i] = match (local_metallic[i], fallback) {
-                    (Some(v), _) => v,
-                    (None, Some(f)) if !materials[j].metallic_pinned => {
-                        f.metallic.get(i).copied().unwrap_or(m)
-                    }
-                    _ => m,
-                };
+                // Where the material's photos pin no metallic, or its
+                // pixels' neighbourhoods contradict the one they pin, the
+                // answer stays per pixel: metal and dielectric can
+                // alternate within one colour, which one call would throw
+                // away (multimat).
+                out.metallic[i] = m;
                 bc += 1;
                 rough += usize::from(materials[j].roughness_pinned);
-                metal += usize::from(materials[j].metallic_pinned || local_metallic[i].is_some());
+                let held = materials[j].metallic_pinned && !materials[j].metallic_mixed;
+                metal += usize::from(held || local_metallic[i].is_some());
                 for (sum, v) in sums[j].0.iter_mut().zip(b) {
                     *sum += f64::from(v);
                 }
@@ -1652,6 +1711,8 @@ fn choose(
         texture_kept: None,
         lobe_pixels: None,
         neighbourhood_pixels: None,
+        contrary_calls: None,
+        metallic_mixed: false,
         subsurface: None,
     }
 }

@@ -10,9 +10,15 @@
 //! clear call is taken (the other metallic's least summed cost at least
 //! `contrast` worse); a tie keeps the fallback's answer.
 //!
-//! Pinned materials are left alone: a window flips pixels of a uniform
-//! metal near its rim or its highlight's edge, which its material's whole
-//! sum decides better (docs/results.md, "metallic per neighbourhood").
+//! A pinned material keeps its one call unless its own pixels' windows
+//! (summed over its pixels alone, so a neighbour's rim casts no vote)
+//! contradict it in a large share of their clear calls
+//! ([`NeighbourhoodOptions::mixed_share`]): a uniform metal's windows
+//! disagree only near its rim or its highlight's edge, a few percent of
+//! their calls, which its material's whole sum decides better; a material
+//! that holds metal and dielectric alike disagrees in a third to nearly all
+//! of them, and its metallic then stays per pixel as an open material's
+//! (docs/results.md, "metallic per neighbourhood").
 
 use super::clearly_worse;
 
@@ -24,19 +30,73 @@ pub struct NeighbourhoodOptions {
     /// A call is taken where the other metallic's least summed cost
     /// exceeds the best by at least this fraction.
     pub contrast: f64,
+    /// A pinned material counts as mixed (metal and dielectric alike)
+    /// where at least this share of its pixels' clear calls contradicts
+    /// its own.
+    pub mixed_share: f64,
 }
 
 impl Default for NeighbourhoodOptions {
     /// Chosen on all of `tune` (docs/results.md): a 5 x 5 window, the
     /// other metallic at least 1.8 times the cost. Lower contrasts flip
     /// pixels the networks had right; larger windows straddle the
-    /// metallic map's regions.
+    /// metallic map's regions. On `tune` a pinned material's contrary
+    /// share is either at most 0.12 (uniform materials, one multimat
+    /// region) or at least 0.43 (multimat's mixed ones): a quarter lies
+    /// between.
     fn default() -> Self {
         NeighbourhoodOptions {
             radius: 2,
             contrast: 0.8,
+            mixed_share: 0.25,
         }
     }
+}
+
+/// The calls of the pixels `members` (indices into a `width`-wide image),
+/// each from its cost volume (`row_of`, `grid` roughnesses per metallic)
+/// summed over the members in its window: `(pixel, metallic)` for every
+/// clear call. The window sums run over the members' bounding box only.
+pub fn member_calls<'a>(
+    members: &[usize],
+    row_of: impl Fn(usize) -> Option<&'a [f64]>,
+    width: usize,
+    grid: usize,
+    options: &NeighbourhoodOptions,
+) -> Vec<(usize, f32)> {
+    if width == 0 || members.is_empty() {
+        return Vec::new();
+    }
+    let (mut x0, mut y0, mut x1, mut y1) = (usize::MAX, usize::MAX, 0, 0);
+    for &i in members {
+        let (x, y) = (i % width, i / width);
+        (x0, y0, x1, y1) = (x0.min(x), y0.min(y), x1.max(x), y1.max(y));
+    }
+    let bw = x1 - x0 + 1;
+    let local = |i: usize| (i / width - y0) * bw + (i % width - x0);
+    let mut rows: Vec<Option<&[f64]>> = vec![None; bw * (y1 - y0 + 1)];
+    for &i in members {
+        rows[local(i)] = row_of(i);
+    }
+    let sums = window_sums(&rows, bw, 2 * grid, options.radius);
+    members
+        .iter()
+        .filter_map(|&i| {
+            let summed = sums[local(i)].as_deref()?;
+            Some((i, call(summed, grid, options.contrast)?))
+        })
+        .collect()
+}
+
+/// The share of `calls` that contradict `metallic` (a call and a metallic
+/// disagree when one is at least 0.5 and the other is not); `None`
+/// without calls.
+pub fn contrary_share(calls: &[(usize, f32)], metallic: f32) -> Option<f64> {
+    let contrary = calls
+        .iter()
+        .filter(|(_, v)| (*v >= 0.5) != (metallic >= 0.5))
+        .count();
+    (!calls.is_empty()).then(|| contrary as f64 / calls.len() as f64)
 }
 
 /// Sums of `rows` (each pixel's `len` costs; `None` where the pixel takes
@@ -193,6 +253,38 @@ mod tests {
         // 1.5 times is no clear call at contrast 0.8.
         assert_eq!(call(&volume(15.0, 10.0), 4, 0.8), None);
         assert_eq!(call(&volume(10.0, 10.0), 4, 0.0), None);
+    }
+
+    #[test]
+    fn member_calls_sum_only_the_members_and_count_the_contrary() {
+        // A 6 x 2 image: members are pixels 0..3 (a metal's volume) and
+        // 6..9; pixels 3 and 9, outside, hold a dielectric's volume that
+        // would outvote the metal in any window that reached them.
+        let metal = [10.0, 9.0, 3.0, 1.0, 2.0, 3.0];
+        let dielectric = [1.0, 2.0, 3.0, 90.0, 90.0, 90.0];
+        let rows: Vec<&[f64]> = (0..12)
+            .map(|i| {
+                if i % 6 < 3 {
+                    &metal[..]
+                } else {
+                    &dielectric[..]
+                }
+            })
+            .collect();
+        let members = [0, 1, 2, 6, 7, 8];
+        let options = NeighbourhoodOptions::default();
+        let calls = member_calls(&members, |i| Some(rows[i]), 6, 3, &options);
+        assert_eq!(
+            calls,
+            vec![(0, 1.0), (1, 1.0), (2, 1.0), (6, 1.0), (7, 1.0), (8, 1.0)]
+        );
+        assert_eq!(contrary_share(&calls, 1.0), Some(0.0));
+        assert_eq!(contrary_share(&calls, 0.0), Some(1.0));
+        assert_eq!(contrary_share(&calls[..0], 0.0), None);
+        // Members without a volume call nothing; no members, no calls.
+        assert!(member_calls(&members, |_| None, 6, 3, &options).is_empty());
+        assert!(member_calls(&[], |i| Some(rows[i]), 6, 3, &options).is_empty());
+        assert!(member_calls(&members, |i| Some(rows[i]), 0, 3, &options).is_empty());
     }
 
     #[test]

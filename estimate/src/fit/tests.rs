@@ -234,6 +234,49 @@ fn a_material_whose_metallic_the_photos_leave_open_keeps_the_networks_per_pixel_
     assert_eq!(fitted.constrained.metallic, 0.0);
 }
 
+/// Gold, metal left of column `boundary` and dielectric right of it: a
+/// metallic map of its own under one colour.
+fn gold_metal_left_of(i: usize, side: usize, boundary: usize) -> Params {
+    Params {
+        metallic: if i % side < boundary { 1.0 } else { 0.0 },
+        ..GOLD
+    }
+}
+
+/// The dome's pixels of a `side`-wide image, and their count with the
+/// background.
+fn dome_mask(side: usize) -> (Vec<bool>, usize) {
+    let n = side * side;
+    ((0..n).map(|i| normal(i, side).is_some()).collect(), n)
+}
+
+/// The dome photographed under `truth`, fitted as one given material with
+/// networks that answer 0.5 everywhere.
+fn fit_one_material(
+    side: usize,
+    truth: &(dyn Fn(usize) -> Params + Sync),
+    options: &FitOptions,
+) -> Fitted {
+    let (mask, n) = dome_mask(side);
+    let labels: Vec<Option<usize>> = mask.iter().map(|&m| m.then_some(0)).collect();
+    fit_pixels(
+        &mask,
+        side,
+        |i| observe(i, side, truth),
+        &vec![0.0; n],
+        Known {
+            labels: Some(&labels),
+            ..Known::default()
+        },
+        Some(Fallback {
+            basecolor: &vec![[0.5; 3]; n],
+            roughness: &vec![0.5; n],
+            metallic: &vec![0.5; n],
+        }),
+        options,
+    )
+}
+
 #[test]
 fn where_a_material_leaves_metallic_open_each_neighbourhood_calls_its_own() {
     // One material (given) of gold's colour, metal on the left half of
@@ -241,37 +284,12 @@ fn where_a_material_leaves_metallic_open_each_neighbourhood_calls_its_own() {
     // not the colour's. A material contrast no sum can meet leaves its
     // call open, and the networks say 0.5 everywhere.
     let side = 48;
-    let gold_dielectric = Params {
-        metallic: 0.0,
-        ..GOLD
-    };
-    let truth = |i: usize| {
-        if (i % side) < side / 2 {
-            GOLD
-        } else {
-            gold_dielectric
-        }
-    };
-    let mask: Vec<bool> = (0..side * side)
-        .map(|i| normal(i, side).is_some())
-        .collect();
-    let n = side * side;
-    let labels: Vec<Option<usize>> = mask.iter().map(|&m| m.then_some(0)).collect();
+    let truth = |i: usize| gold_metal_left_of(i, side, side / 2);
+    let (mask, n) = dome_mask(side);
     let fit = |neighbourhood: Option<NeighbourhoodOptions>| {
-        fit_pixels(
-            &mask,
+        fit_one_material(
             side,
-            |i| observe(i, side, &truth),
-            &vec![0.0; n],
-            Known {
-                labels: Some(&labels),
-                ..Known::default()
-            },
-            Some(Fallback {
-                basecolor: &vec![[0.5; 3]; n],
-                roughness: &vec![0.5; n],
-                metallic: &vec![0.5; n],
-            }),
+            &truth,
             &FitOptions {
                 metallic_contrast: 1e6,
                 neighbourhood,
@@ -315,6 +333,73 @@ fn where_a_material_leaves_metallic_open_each_neighbourhood_calls_its_own() {
     let open = fit(None);
     assert!((0..n).filter(|&i| mask[i]).all(|i| open.metallic[i] == 0.5));
     assert_eq!(open.materials[0].neighbourhood_pixels, None);
+}
+
+#[test]
+fn a_pinned_material_whose_neighbourhoods_contradict_it_keeps_metallic_per_pixel() {
+    // One material (given) of gold's colour, metal on the left two thirds
+    // of the dome and dielectric on the right third: its whole sum pins
+    // one call, which is wrong on a third of it. A uniform gold metal
+    // beside it stays one call.
+    let side = 48;
+    let (mask, n) = dome_mask(side);
+    let options = FitOptions {
+        metallic_contrast: 0.01,
+        neighbourhood: Some(NeighbourhoodOptions::default()),
+        ..FitOptions::default()
+    };
+    let fit = |truth: &(dyn Fn(usize) -> Params + Sync)| fit_one_material(side, truth, &options);
+    let mixed = fit(&|i| gold_metal_left_of(i, side, 2 * side / 3));
+    let m = &mixed.materials[0];
+    assert!(m.metallic_pinned, "{m:?}");
+    assert!(m.metallic_mixed, "{m:?}");
+    let share = m
+        .contrary_calls
+        .expect("a pinned material's calls are read");
+    assert!((0.25..=1.0).contains(&share), "{share}");
+    // Interior pixels (whose 5 x 5 window lies on one side) that were
+    // called are called right, and most of each side is called.
+    let boundary = 2 * side / 3;
+    let interior = |i: usize| mask[i] && (i % side + 2 < boundary || i % side >= boundary + 2);
+    for (side_of, want) in [(true, 1.0f32), (false, 0.0)] {
+        let pixels: Vec<usize> = (0..n)
+            .filter(|&i| interior(i) && ((i % side) < boundary) == side_of)
+            .collect();
+        let right = pixels
+            .iter()
+            .filter(|&&i| mixed.metallic[i] == want)
+            .count();
+        let wrong = pixels
+            .iter()
+            .filter(|&&i| mixed.metallic[i] == 1.0 - want)
+            .count();
+        assert_eq!(wrong, 0, "{wrong} interior pixels called {}", 1.0 - want);
+        assert!(
+            right as f64 > 0.8 * pixels.len() as f64,
+            "{right} of {} called {want}",
+            pixels.len()
+        );
+    }
+    // Uncalled pixels of a mixed material keep the networks' 0.5, and
+    // only the called ones count as constrained.
+    let called = mixed
+        .metallic
+        .iter()
+        .zip(&mask)
+        .filter(|(&v, &k)| k && v != 0.5)
+        .count();
+    assert_eq!(m.neighbourhood_pixels, Some(called));
+    let object = mask.iter().filter(|&&k| k).count() as f32;
+    assert!((mixed.constrained.metallic - called as f32 / object).abs() < 1e-6);
+
+    let uniform = fit(&|_| GOLD);
+    let m = &uniform.materials[0];
+    assert!(m.metallic_pinned && !m.metallic_mixed, "{m:?}");
+    assert!(m.contrary_calls.is_some_and(|s| s < 0.05), "{m:?}");
+    assert!((0..n)
+        .filter(|&i| mask[i])
+        .all(|i| uniform.metallic[i] == 1.0));
+    assert_eq!(uniform.constrained.metallic, 1.0);
 }
 
 #[test]
@@ -496,6 +581,8 @@ fn pinned_roughness_replaces_only_the_pixels_of_materials_that_pinned_it() {
         texture_kept: None,
         lobe_pixels: None,
         neighbourhood_pixels: None,
+        contrary_calls: None,
+        metallic_mixed: false,
         subsurface: None,
     };
     let fitted = Fitted {
@@ -583,6 +670,8 @@ fn dielectric_basecolor_replaces_only_the_pixels_of_opaque_dielectric_materials(
         texture_kept: None,
         lobe_pixels: None,
         neighbourhood_pixels: None,
+        contrary_calls: None,
+        metallic_mixed: false,
         subsurface: None,
     };
     let fitted = Fitted {
@@ -985,6 +1074,8 @@ fn transmission_and_subsurface_are_absent_only_where_the_photos_show_it() {
             texture_kept: None,
             lobe_pixels: None,
             neighbourhood_pixels: None,
+            contrary_calls: None,
+            metallic_mixed: false,
             subsurface: None,
         };
     use backlight::Passage::{Blocked, Partly, Passes};
@@ -1131,6 +1222,8 @@ fn pinned_metal(highlight: Option<HighlightColour>) -> MaterialFit {
         texture_kept: None,
         lobe_pixels: None,
         neighbourhood_pixels: None,
+        contrary_calls: None,
+        metallic_mixed: false,
         subsurface: None,
     }
 }
