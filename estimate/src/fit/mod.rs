@@ -539,10 +539,12 @@ impl Fitted {
     /// ([`TextureReadings`]): the fit's own per-pixel answers and the
     /// networks', each relative to its mean over the material. A material
     /// whose metallic is open (a per-pixel map) keeps the networks' answer
-    /// as it is: the fit's reading there is under one metallic for pixels
-    /// of both, and so does a material whose networks' mean is about black
-    /// (at most 1e-3) in a channel: there is no texture to compare. The
-    /// share kept, per channel, goes into the material's `texture_kept`.
+    /// as it is (reading it too lost on multimat, docs/results.md), and so
+    /// does a material whose networks' mean is about black (at most 1e-3)
+    /// in a channel: there is no texture to compare. A mixed material
+    /// (`metallic_mixed`) counts as pinned: its mean and readings are
+    /// taken over the pixels of both metallics. The share kept, per
+    /// channel, goes into the material's `texture_kept`.
     /// Returns the share of the fitted pixels written: the photos measured
     /// their mean (a metal's highlights) or shaped their texture.
     pub fn basecolor_texture_into(&mut self, basecolor: &mut [[f32; 3]]) -> f32 {
@@ -1266,7 +1268,7 @@ where
     // call in a large share of their clear calls holds metal and
     // dielectric alike (multimat): its metallic stays per pixel. Light
     // seen through a material rules a metal out, so the backlight's call
-    // stands.
+    // stands. Each pinned material's window sums run over its bounding box.
     if let (Some(o), None) = (options.neighbourhood, known.metallic) {
         let calls: Vec<Vec<(usize, f32)>> = materials
             .par_iter()
@@ -1310,11 +1312,17 @@ where
         let m = &materials[j];
         match (local_metallic[i], fallback) {
             (Some(v), _) => v,
-            (None, Some(f)) if per_pixel(m) => f.metallic.get(i).copied().unwrap_or(m.metallic),
+            (None, Some(f)) if per_pixel(m) => f
+                .metallic
+                .get(i)
+                .copied()
+                .filter(|v| v.is_finite())
+                .unwrap_or(m.metallic),
             _ => m.metallic,
         }
     };
-    // Basecolor per pixel at its material's roughness and metallic, first
+    // Basecolor per pixel at its material's roughness and its own
+    // metallic, first
     // from its own photos alone; then pulled toward its material's
     // information-weighted mean, which decides only where the photos say
     // little of it (a glossy metal away from its highlights).

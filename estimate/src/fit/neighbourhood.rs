@@ -13,12 +13,14 @@
 //! A pinned material keeps its one call unless its own pixels' windows
 //! (summed over its pixels alone, so a neighbour's rim casts no vote)
 //! contradict it in a large share of their clear calls
-//! ([`NeighbourhoodOptions::mixed_share`]): a uniform metal's windows
-//! disagree only near its rim or its highlight's edge, a few percent of
-//! their calls, which its material's whole sum decides better; a material
-//! that holds metal and dielectric alike disagrees in a third to nearly all
-//! of them, and its metallic then stays per pixel as an open material's
-//! (docs/results.md, "metallic per neighbourhood").
+//! ([`NeighbourhoodOptions::mixed_share`]): a material of one metallic
+//! disagrees in at most an eighth of them on `tune` (near its rim or its
+//! highlight's edge, which its material's whole sum decides better); a
+//! material that holds metal and dielectric alike in two fifths to nearly
+//! all, and its metallic then stays per pixel as an open material's
+//! (docs/results.md, "a pinned material that holds metal and dielectric
+//! alike"). Every material is read on its direct light, the scattering
+//! ones too (whose metallic their total light decided).
 
 use super::clearly_worse;
 
@@ -41,9 +43,9 @@ impl Default for NeighbourhoodOptions {
     /// other metallic at least 1.8 times the cost. Lower contrasts flip
     /// pixels the networks had right; larger windows straddle the
     /// metallic map's regions. On `tune` a pinned material's contrary
-    /// share is either at most 0.12 (uniform materials, one multimat
-    /// region) or at least 0.43 (multimat's mixed ones): a quarter lies
-    /// between.
+    /// share is either at most 0.12 (every material of the kinds with
+    /// constant materials, two multimat ones) or at least 0.43 (four
+    /// multimat ones): a quarter lies between.
     fn default() -> Self {
         NeighbourhoodOptions {
             radius: 2,
@@ -257,34 +259,47 @@ mod tests {
 
     #[test]
     fn member_calls_sum_only_the_members_and_count_the_contrary() {
-        // A 6 x 2 image: members are pixels 0..3 (a metal's volume) and
-        // 6..9; pixels 3 and 9, outside, hold a dielectric's volume that
-        // would outvote the metal in any window that reached them.
-        let metal = [10.0, 9.0, 3.0, 1.0, 2.0, 3.0];
-        let dielectric = [1.0, 2.0, 3.0, 90.0, 90.0, 90.0];
-        let rows: Vec<&[f64]> = (0..12)
-            .map(|i| {
-                if i % 6 < 3 {
-                    &metal[..]
-                } else {
-                    &dielectric[..]
-                }
+        // An 8 x 3 image; members (x, y) = (2..=5, 1) and (2, 2): metal at
+        // x 2 and 3, dielectric at x 4 and 5. Every other pixel holds a
+        // strong metal's volume that would turn x 4 metal if it voted
+        // (three of them lie inside the members' bounding box).
+        let metal = [100.0, 101.0, 102.0, 1.0, 2.0, 3.0];
+        let dielectric = [1.0, 2.0, 3.0, 100.0, 101.0, 102.0];
+        let strong_metal = [1000.0, 1000.0, 1000.0, 1.0, 2.0, 3.0];
+        let at = |x: usize, y: usize| y * 8 + x;
+        let members = [at(2, 1), at(3, 1), at(4, 1), at(5, 1), at(2, 2)];
+        let row_of = |i: usize| -> Option<&[f64]> {
+            Some(match (i % 8, members.contains(&i)) {
+                (2 | 3, true) => &metal[..],
+                (_, true) => &dielectric[..],
+                _ => &strong_metal[..],
             })
-            .collect();
-        let members = [0, 1, 2, 6, 7, 8];
-        let options = NeighbourhoodOptions::default();
-        let calls = member_calls(&members, |i| Some(rows[i]), 6, 3, &options);
+        };
+        let options = NeighbourhoodOptions {
+            radius: 1,
+            ..NeighbourhoodOptions::default()
+        };
+        let calls = member_calls(&members, row_of, 8, 3, &options);
+        // x 3 sums metal, metal, dielectric and the metal below x 2 (301
+        // against 103); x 4 sums metal, dielectric, dielectric (102
+        // against 201).
         assert_eq!(
             calls,
-            vec![(0, 1.0), (1, 1.0), (2, 1.0), (6, 1.0), (7, 1.0), (8, 1.0)]
+            vec![
+                (at(2, 1), 1.0),
+                (at(3, 1), 1.0),
+                (at(4, 1), 0.0),
+                (at(5, 1), 0.0),
+                (at(2, 2), 1.0)
+            ]
         );
-        assert_eq!(contrary_share(&calls, 1.0), Some(0.0));
-        assert_eq!(contrary_share(&calls, 0.0), Some(1.0));
+        assert_eq!(contrary_share(&calls, 1.0), Some(0.4));
+        assert_eq!(contrary_share(&calls, 0.0), Some(0.6));
         assert_eq!(contrary_share(&calls[..0], 0.0), None);
         // Members without a volume call nothing; no members, no calls.
-        assert!(member_calls(&members, |_| None, 6, 3, &options).is_empty());
-        assert!(member_calls(&[], |i| Some(rows[i]), 6, 3, &options).is_empty());
-        assert!(member_calls(&members, |i| Some(rows[i]), 0, 3, &options).is_empty());
+        assert!(member_calls(&members, |_| None, 8, 3, &options).is_empty());
+        assert!(member_calls(&[], row_of, 8, 3, &options).is_empty());
+        assert!(member_calls(&members, row_of, 0, 3, &options).is_empty());
     }
 
     #[test]
