@@ -1093,8 +1093,13 @@ where
     // Every blocked material's volumes without the caller's transmission,
     // which its pixels' neighbourhoods read too.
     let mut recosted_all: HashMap<usize, Volume> = HashMap::new();
-    for j in 0..parts.count {
-        let list: Vec<usize> = (0..n).filter(|&i| parts.labels[i] == Some(j)).collect();
+    let mut members: Vec<Vec<usize>> = vec![Vec::new(); parts.count];
+    for (i, label) in parts.labels.iter().enumerate() {
+        if let Some(j) = label {
+            members[*j].push(i);
+        }
+    }
+    for (j, list) in members.iter().enumerate() {
         let reading = known
             .backlight
             .zip(options.backlight.as_ref())
@@ -1111,7 +1116,7 @@ where
             HashMap::new()
         };
         let mut by_direct = vec![0.0f64; points];
-        for &i in &list {
+        for &i in list {
             if let Some(v) = recosted.get(&i).or(volumes[i].as_ref()) {
                 by_direct.iter_mut().zip(&v.cost).for_each(|(t, c)| *t += c);
             }
@@ -1258,12 +1263,6 @@ where
         _ => vec![None; n],
     };
     let mut local_metallic = local_metallic;
-    let mut members: Vec<Vec<usize>> = vec![Vec::new(); materials.len()];
-    for (i, label) in parts.labels.iter().enumerate() {
-        if let Some(j) = label {
-            members[*j].push(i);
-        }
-    }
     // A pinned material whose own pixels' neighbourhoods contradict its
     // call in a large share of their clear calls holds metal and
     // dielectric alike (multimat): its metallic stays per pixel. Light
