@@ -1099,11 +1099,11 @@ where
             members[*j].push(i);
         }
     }
-    for (j, list) in members.iter().enumerate() {
+    for list in members.iter() {
         let reading = known
             .backlight
             .zip(options.backlight.as_ref())
-            .and_then(|(b, o)| b.material(&list, o));
+            .and_then(|(b, o)| b.material(list, o));
         let opaque = reading.is_some_and(|r| r.passage == Passage::Blocked);
         // A material that passes no light is costed without the
         // transmission the caller's map gave its pixels.
@@ -1124,11 +1124,11 @@ where
         // Light through a material rules out a metal, which transmits
         // nothing and scatters nothing inside.
         let dielectric = reading.is_some_and(|r| r.passage == Passage::Passes);
-        let measured_share = separated.then(|| global_share(&list, &total_light));
+        let measured_share = separated.then(|| global_share(list, &total_light));
         let mut material = choose(
             &by_direct,
             &grid,
-            &list,
+            list,
             known,
             Evidence {
                 dielectric,
@@ -1160,7 +1160,7 @@ where
             let in_total = choose(
                 &by_total,
                 &grid,
-                &list,
+                list,
                 known,
                 Evidence {
                     dielectric,
