@@ -1320,9 +1320,13 @@ where
             _ => m.metallic,
         }
     };
-    // Basecolor per pixel at its material's roughness and its own
-    // metallic, first
-    // from its own photos alone; then pulled toward its material's
+    // The metallic a pixel's basecolor is read at: a call the photos
+    // made (its window's, else its material's). The networks' fractional
+    // metallic is no surface the photos showed (a surface is a metal or
+    // not), and reading a dielectric at it darkens its basecolor.
+    let read_at = |i: usize, j: usize| local_metallic[i].unwrap_or(materials[j].metallic);
+    // Basecolor per pixel at its material's roughness and that metallic,
+    // first from its own photos alone; then pulled toward its material's
     // information-weighted mean, which decides only where the photos say
     // little of it (a glossy metal away from its highlights).
     let own: Vec<Option<(Vec<Response>, LinearFit)>> = (0..n)
@@ -1331,7 +1335,7 @@ where
             let j = parts.labels[i]?;
             let m = &materials[j];
             let obs = observed(i, j);
-            let r = responses(obs, m.roughness, metallic_at(i, j), &fixed_of(i, m));
+            let r = responses(obs, m.roughness, read_at(i, j), &fixed_of(i, m));
             let fit = solve(obs, &r, &options.noise);
             Some((r, fit))
         })

@@ -1406,3 +1406,25 @@ fn a_metals_texture_the_two_readings_disagree_on_is_left_out() {
     }
     assert_eq!(fitted.materials[0].texture_kept, Some([0.0; 3]));
 }
+
+#[test]
+fn an_uncalled_pixels_basecolor_is_read_at_its_materials_metallic_not_the_networks() {
+    // A grey surface seen from one angle away from its highlight leaves
+    // metallic open, and no window calls it: the networks' fractional
+    // metallic stays each pixel's answer, but its basecolor is read at
+    // the material's metallic, so it does not follow that guess.
+    let n = 64;
+    let network_metallic: Vec<f32> = (0..n).map(|i| if i % 3 == 0 { 0.9 } else { 0.1 }).collect();
+    let fitted = fit_one_view_away([0.5; 3], &vec![0.5; n], &network_metallic);
+    assert_eq!(fitted.materials.len(), 1, "{:?}", fitted.materials);
+    let material = &fitted.materials[0];
+    assert!(!material.metallic_pinned, "{material:?}");
+    assert_eq!(fitted.metallic, network_metallic);
+    let first = fitted.basecolor[0];
+    assert!(first.iter().all(|c| c.is_finite() && *c > 0.3), "{first:?}");
+    assert!(
+        fitted.basecolor.iter().all(|b| *b == first),
+        "{:?}",
+        &fitted.basecolor[..4]
+    );
+}
