@@ -1177,9 +1177,14 @@ where
             }
         }
         // The total light rarely pins a scattering dielectric's roughness:
-        // its highlights can.
-        let unread = material.scattering
-            && !material.roughness_pinned
+        // its highlights can. A material the backlight shows light through
+        // has light refracted through the object in its direct light (a
+        // checker seen through clear material keeps its sharp edges),
+        // which no surface model renders and which a broad lobe soaks up
+        // when every view counts: its highlights decide its roughness
+        // wherever they pin one.
+        let passes = reading.is_some_and(|b| b.passage == Passage::Passes);
+        let unread = (material.scattering && !material.roughness_pinned || passes)
             && material.metallic < 0.5
             && known.roughness.is_none();
         if let (true, Some(direct), Some(lobe)) = (unread, direct.as_ref(), options.lobe) {

@@ -1428,3 +1428,74 @@ fn an_uncalled_pixels_basecolor_is_read_at_its_materials_metallic_not_the_networ
         &fitted.basecolor[..4]
     );
 }
+
+#[test]
+fn a_material_that_passes_light_reads_its_roughness_from_its_highlights() {
+    // A clear glossy dielectric: the backlight shows light through it,
+    // and its direct light also holds light refracted through the object
+    // (a checker seen through clear material keeps its sharp edges),
+    // which no surface model renders: here a broad glow over every view.
+    // Summed over every view that glow widens the lobe (roughness 0.9
+    // here, left unpinned); the views near the mirror direction still
+    // show the surface's own.
+    let side = 48;
+    let n = side * side;
+    let mask: Vec<bool> = (0..n).map(|i| normal(i, side).is_some()).collect();
+    let truth = Params {
+        basecolor: [0.3, 0.5, 0.6],
+        roughness: 0.2,
+        metallic: 0.0,
+    };
+    let transmission = 0.85;
+    let surface = bsdf(&truth.to_x(), &Fixed { transmission });
+    let glow = Params {
+        basecolor: [0.0; 3],
+        roughness: 1.0,
+        metallic: 0.0,
+    };
+    let glow = bsdf(&glow.to_x(), &Fixed::default());
+    let observe_clear = |i: usize| -> Vec<Sample> {
+        let Some(nrm) = normal(i, side) else {
+            return Vec::new();
+        };
+        lights()
+            .iter()
+            .filter_map(|&l| {
+                let (wo, wi) = (local(nrm, Vec3::Z), local(nrm, l));
+                if wo.z <= 0.05 || wi.z <= 0.05 {
+                    return None;
+                }
+                let mut o = Observation::rendered(&surface, wo, wi, [1.5; 3]);
+                let extra = Observation::rendered(&glow, wo, wi, [1.5; 3]);
+                for (v, e) in o.observed.iter_mut().zip(extra.observed) {
+                    *v += 7.0 * e;
+                }
+                // The checkers separated a little global light: the
+                // glow itself kept its edges and counts as direct.
+                let mut sample = Sample::exact(o);
+                sample.global = o.observed.map(|v| 0.02 * v);
+                Some(sample)
+            })
+            .collect()
+    };
+    let labels: Vec<Option<usize>> = mask.iter().map(|&m| m.then_some(0)).collect();
+    let backlight = through(n, 0.3);
+    let fitted = fit_pixels(
+        &mask,
+        side,
+        observe_clear,
+        &vec![transmission; n],
+        Known {
+            backlight: Some(&backlight),
+            labels: Some(&labels),
+            ..Known::default()
+        },
+        None,
+        &FitOptions::default(),
+    );
+    assert_eq!(fitted.materials.len(), 1, "{:?}", fitted.materials);
+    let m = &fitted.materials[0];
+    assert!(m.passes_light() && m.metallic == 0.0, "{m:?}");
+    assert!(m.roughness_pinned && m.lobe_pixels.is_some(), "{m:?}");
+    assert!((m.roughness - truth.roughness).abs() < 0.05, "{m:?}");
+}
