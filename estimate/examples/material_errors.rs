@@ -58,10 +58,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
     for scan in matscan_scan::bundle::find_bundles(root)? {
         let bundle = Bundle::open(&scan)?;
-        let name = scan
-            .file_name()
-            .map(|n| n.to_string_lossy().to_string())
-            .unwrap_or_default();
+        let name = support::scan_name(&scan);
         let est_dir = match estimates {
             Some(d) => d.join(&name),
             None => scan.join("estimate"),

@@ -13,6 +13,8 @@ use matscan_scan::estimate_maps::read_position_maps;
 use matscan_scan::{Bundle, Param};
 use std::path::Path;
 
+mod support;
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
     let root = Path::new(args.get(1).ok_or("usage: metallic_calls DIR ESTIMATES")?);
@@ -20,10 +22,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!("scan | object px | called: share MAD truth-metal | networks: share MAD truth-metal rounded-MAD");
     for scan in matscan_scan::bundle::find_bundles(root)? {
         let bundle = Bundle::open(&scan)?;
-        let name = scan
-            .file_name()
-            .map(|n| n.to_string_lossy().to_string())
-            .unwrap_or_default();
+        let name = support::scan_name(&scan);
         let est_dir = estimates.join(&name);
         let Ok(text) = std::fs::read_to_string(est_dir.join("result.toml")) else {
             continue;

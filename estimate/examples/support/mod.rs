@@ -10,6 +10,13 @@ use std::path::Path;
 
 pub type Error = Box<dyn std::error::Error>;
 
+/// A scan folder's name (empty where it has none).
+pub fn scan_name(scan: &Path) -> String {
+    scan.file_name()
+        .map(|n| n.to_string_lossy().to_string())
+        .unwrap_or_default()
+}
+
 /// The median of `v` (the upper one of an even count); NaN when empty.
 pub fn median(mut v: Vec<f32>) -> f32 {
     if v.is_empty() {
