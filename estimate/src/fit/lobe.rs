@@ -19,9 +19,8 @@
 //! A material that passes light has the same trouble in its direct light:
 //! light refracted through the object keeps the checker's sharp edges, so
 //! the separation counts it as direct, and no surface model renders it.
-//! Summed over every view, a broad lobe soaks it up: on `tune` a clear
-//! material (the split joined two, of roughness 0.29 and 0.38) read 0.86,
-//! and its highlights read 0.38.
+//! Summed over every view, a broad lobe soaks it up; near the mirror
+//! direction the surface's own lobe still outshines it.
 //!
 //! Boundaries: costs of the samples it is given; which materials it reads
 //! and what their answer becomes is the fit's ([`super::fit_pixels`]).

@@ -333,8 +333,9 @@ pub struct MaterialFit {
     /// ([`Fitted::basecolor_texture_into`]).
     #[serde(default)]
     pub texture_kept: Option<[f32; 3]>,
-    /// A scattering material whose roughness its views near the mirror
-    /// direction pinned ([`lobe`]): how many of its pixels had such a view.
+    /// A material that scatters light inside or passes the backlight,
+    /// whose roughness its views near the mirror direction pinned
+    /// ([`lobe`]): how many of its pixels had such a view.
     #[serde(default)]
     pub lobe_pixels: Option<usize>,
     /// A material whose photos pinned no metallic, or a mixed one
@@ -1184,10 +1185,13 @@ where
         // when every view counts: its highlights decide its roughness
         // wherever they pin one.
         let passes = reading.is_some_and(|b| b.passage == Passage::Passes);
-        let unread = (material.scattering && !material.roughness_pinned || passes)
+        // The lobe's costs take the caller's transmission map: the
+        // backlight measures the material's own after this loop, at the
+        // roughness read here.
+        let from_highlights = ((material.scattering && !material.roughness_pinned) || passes)
             && material.metallic < 0.5
             && known.roughness.is_none();
-        if let (true, Some(direct), Some(lobe)) = (unread, direct.as_ref(), options.lobe) {
+        if let (true, Some(direct), Some(lobe)) = (from_highlights, direct.as_ref(), options.lobe) {
             // Each pixel with a view into the lobe adds its row and counts.
             let (summed, seen) = list
                 .par_iter()
@@ -1325,10 +1329,11 @@ where
             _ => m.metallic,
         }
     };
-    // The metallic a pixel's basecolor is read at: a call the photos
-    // made (its window's, else its material's). The networks' fractional
-    // metallic is no surface the photos showed (a surface is a metal or
-    // not), and reading a dielectric at it darkens its basecolor.
+    // The metallic a pixel's basecolor is read at: its window's call, else
+    // its material's metallic (a pinned material's call; an open
+    // material's is the networks' majority, rounded). The networks'
+    // fractional metallic is no surface the photos showed (a surface is a
+    // metal or not), and reading a dielectric at it darkens its basecolor.
     let read_at = |i: usize, j: usize| local_metallic[i].unwrap_or(materials[j].metallic);
     // Basecolor per pixel at its material's roughness and that metallic,
     // first from its own photos alone; then pulled toward its material's

@@ -1412,7 +1412,9 @@ fn an_uncalled_pixels_basecolor_is_read_at_its_materials_metallic_not_the_networ
     // A grey surface seen from one angle away from its highlight leaves
     // metallic open, and no window calls it: the networks' fractional
     // metallic stays each pixel's answer, but its basecolor is read at
-    // the material's metallic, so it does not follow that guess.
+    // the material's metallic (the networks' majority, rounded: a
+    // dielectric), so it does not follow that guess and stays near the
+    // truth (read at the networks' roughness 0.5, not the truth's 0.1).
     let n = 64;
     let network_metallic: Vec<f32> = (0..n).map(|i| if i % 3 == 0 { 0.9 } else { 0.1 }).collect();
     let fitted = fit_one_view_away([0.5; 3], &vec![0.5; n], &network_metallic);
@@ -1421,7 +1423,7 @@ fn an_uncalled_pixels_basecolor_is_read_at_its_materials_metallic_not_the_networ
     assert!(!material.metallic_pinned, "{material:?}");
     assert_eq!(fitted.metallic, network_metallic);
     let first = fitted.basecolor[0];
-    assert!(first.iter().all(|c| c.is_finite() && *c > 0.3), "{first:?}");
+    assert!(first.iter().all(|c| (c - 0.5).abs() < 0.1), "{first:?}");
     assert!(
         fitted.basecolor.iter().all(|b| *b == first),
         "{:?}",
