@@ -215,15 +215,22 @@ fn a_material_seen_from_one_angle_only_leaves_roughness_to_the_fallback() {
     assert_eq!(fitted.constrained.roughness, 0.0);
 }
 
+/// [`fit_one_view_away`] of 64 pixels under the networks' roughness 0.5
+/// and a metallic map alternating 0.9 and 0.1 (returned beside the fit).
+fn fit_open_under_networks_map(basecolor: [f32; 3]) -> (Fitted, Vec<f32>) {
+    let n = 64;
+    let network_metallic: Vec<f32> = (0..n).map(|i| if i % 3 == 0 { 0.9 } else { 0.1 }).collect();
+    let fitted = fit_one_view_away(basecolor, &vec![0.5; n], &network_metallic);
+    (fitted, network_metallic)
+}
+
 #[test]
 fn a_material_whose_metallic_the_photos_leave_open_keeps_the_networks_per_pixel_map() {
     // A black surface seen away from its highlight: metal and dielectric
     // both explain it with basecolor 0, so metallic is not pinned, and the
     // networks' answer stays pixel by pixel (metal and dielectric may
     // alternate within one colour), not one call from its median.
-    let n = 64;
-    let network_metallic: Vec<f32> = (0..n).map(|i| if i % 3 == 0 { 0.9 } else { 0.1 }).collect();
-    let fitted = fit_one_view_away([0.0; 3], &vec![0.5; n], &network_metallic);
+    let (fitted, network_metallic) = fit_open_under_networks_map([0.0; 3]);
     assert_eq!(fitted.materials.len(), 1, "{:?}", fitted.materials);
     assert!(
         !fitted.materials[0].metallic_pinned,
@@ -1415,9 +1422,7 @@ fn an_uncalled_pixels_basecolor_is_read_at_its_materials_metallic_not_the_networ
     // the material's metallic (the networks' majority, rounded: a
     // dielectric), so it does not follow that guess and stays near the
     // truth (read at the networks' roughness 0.5, not the truth's 0.1).
-    let n = 64;
-    let network_metallic: Vec<f32> = (0..n).map(|i| if i % 3 == 0 { 0.9 } else { 0.1 }).collect();
-    let fitted = fit_one_view_away([0.5; 3], &vec![0.5; n], &network_metallic);
+    let (fitted, network_metallic) = fit_open_under_networks_map([0.5; 3]);
     assert_eq!(fitted.materials.len(), 1, "{:?}", fitted.materials);
     let material = &fitted.materials[0];
     assert!(!material.metallic_pinned, "{material:?}");
